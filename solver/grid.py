@@ -1,0 +1,122 @@
+"""The structured background grid: a PETSc DMDA over the node lattice of a rectangle.
+
+Cells are ``hx x hy`` rectangles; a cell of order p (1 for Q4, 2 for Q8/Q9) spans p + 1
+lattice nodes per direction, so the lattice has ``p NX + 1`` by ``p NY + 1`` nodes with two
+displacement DOFs each (x, y). Cell (cx, cy) belongs to the rank that owns its lower-left
+node; the DMDA's box stencil of width p makes all its nodes visible there as ghosts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from . import shapes
+
+
+class Grid:
+    """Background grid of ``cells = (NX, NY)`` cells over ``[0, W] x [0, H]`` (m)."""
+
+    def __init__(self, comm, element: str, cells, size):
+        self.comm = comm
+        self.element = element
+        self.p = shapes.ORDER[element]
+        self.cells = tuple(int(c) for c in cells)
+        self.size = tuple(float(s) for s in size)
+        self.h = (self.size[0] / self.cells[0], self.size[1] / self.cells[1])
+        self.nodes = (self.p * self.cells[0] + 1, self.p * self.cells[1] + 1)
+        self.offsets = shapes.OFFSETS[element]
+        self.da = PETSc.DMDA().create(dim=2, dof=2, sizes=self.nodes, stencil_type="box",
+                                      stencil_width=self.p, comm=comm)
+        self.da.setUniformCoordinates(0.0, self.size[0], 0.0, self.size[1])
+        (self.xs, self.xe), (self.ys, self.ye) = self.da.getRanges()
+        (self.gxs, self.gys), (self.gxm, self.gym) = self.da.getGhostCorners()
+
+    # -- cells ---------------------------------------------------------------------------
+    def owned_cells(self):
+        """Indices (cx, cy) of the cells this rank owns, each of shape (nc,)."""
+        p = self.p
+        cx = np.arange(-(-self.xs // p), min(-(-self.xe // p), self.cells[0]))
+        cy = np.arange(-(-self.ys // p), min(-(-self.ye // p), self.cells[1]))
+        CX, CY = np.meshgrid(cx, cy, indexing="xy")
+        return CX.ravel(), CY.ravel()
+
+    def cell_owner(self, cx, cy):
+        """The rank that owns each cell (cx, cy): the owner of its lower-left node."""
+        lx, ly = self.da.getOwnershipRanges()
+        px = np.searchsorted(np.cumsum(lx), self.p * np.asarray(cx), side="right")
+        py = np.searchsorted(np.cumsum(ly), self.p * np.asarray(cy), side="right")
+        return py * len(lx) + px
+
+    def locate(self, x):
+        """Cell indices and natural coordinates of points x (n, 2) in m."""
+        hx, hy = self.h
+        cx = np.clip(np.floor(x[:, 0] / hx).astype(np.int64), 0, self.cells[0] - 1)
+        cy = np.clip(np.floor(x[:, 1] / hy).astype(np.int64), 0, self.cells[1] - 1)
+        xi = 2 * (x[:, 0] - cx * hx) / hx - 1
+        eta = 2 * (x[:, 1] - cy * hy) / hy - 1
+        return cx, cy, xi, eta
+
+    def cell_nodes(self, cx, cy):
+        """Lattice indices (i, j) of the nodes of cells (cx, cy): two arrays (n, nen)."""
+        i = self.p * np.asarray(cx)[:, None] + self.offsets[None, :, 0]
+        j = self.p * np.asarray(cy)[:, None] + self.offsets[None, :, 1]
+        return i, j
+
+    # -- numbering -----------------------------------------------------------------------
+    def local_node(self, i, j):
+        """Ghosted-local node numbers of lattice nodes (i, j) (for setValuesLocal)."""
+        return (np.asarray(j) - self.gys) * self.gxm + (np.asarray(i) - self.gxs)
+
+    def local_dofs(self, i, j):
+        """Ghosted-local DOF numbers (n, 2 nen), interleaved x, y per node."""
+        node = self.local_node(i, j)
+        return np.stack([2 * node, 2 * node + 1], axis=-1).reshape(node.shape[0], -1)
+
+    def owned_node_coordinates(self):
+        """Coordinates (m) of the owned nodes in the order of the global Vec, shape (nown, 2)."""
+        hx, hy = self.h[0] / self.p, self.h[1] / self.p
+        I, J = np.meshgrid(np.arange(self.xs, self.xe), np.arange(self.ys, self.ye),
+                           indexing="xy")
+        return np.stack([I.ravel() * hx, J.ravel() * hy], axis=-1)
+
+    def lattice_coordinates(self):
+        """Coordinates (m) of all lattice nodes in natural order (row by row), shape (N, 2)."""
+        hx, hy = self.h[0] / self.p, self.h[1] / self.p
+        I, J = np.meshgrid(np.arange(self.nodes[0]), np.arange(self.nodes[1]), indexing="xy")
+        return np.stack([I.ravel() * hx, J.ravel() * hy], axis=-1)
+
+    def constrained_mask(self, bcs):
+        """Boolean mask over the owned DOFs (global Vec order) of fixed displacements.
+
+        ``bcs`` maps a side (left, right, bottom, top) to the fixed components ('x', 'y',
+        'xy' or 'none').
+        """
+        I, J = np.meshgrid(np.arange(self.xs, self.xe), np.arange(self.ys, self.ye),
+                           indexing="xy")
+        I, J = I.ravel(), J.ravel()
+        sides = {"left": I == 0, "right": I == self.nodes[0] - 1,
+                 "bottom": J == 0, "top": J == self.nodes[1] - 1}
+        fixed = np.zeros((I.size, 2), dtype=bool)
+        for side, comps in bcs.items():
+            for c, name in enumerate("xy"):
+                if name in comps:
+                    fixed[sides[side], c] = True
+        return fixed.ravel()
+
+    def cell_connectivity(self):
+        """All cells' lattice node numbers in natural order, shape (ncells, nen)."""
+        cx, cy = np.meshgrid(np.arange(self.cells[0]), np.arange(self.cells[1]), indexing="xy")
+        i, j = self.cell_nodes(cx.ravel(), cy.ravel())
+        return j * self.nodes[0] + i
+
+    def gather_natural(self, vec):
+        """A global DMDA Vec gathered on rank 0 in natural order as (N, 2); None elsewhere."""
+        nat = self.da.createNaturalVec()
+        self.da.globalToNatural(vec, nat)
+        scatter, seq = PETSc.Scatter.toZero(nat)
+        scatter.scatter(nat, seq, PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+        out = seq.getArray().reshape(-1, 2).copy() if self.comm.rank == 0 else None
+        for obj in (scatter, seq, nat):
+            obj.destroy()
+        return out

@@ -1,0 +1,211 @@
+"""The ``-mpm_`` options: read once from the PETSc options database, checked, returned as data.
+
+Every parameter of a run is a PETSc option with the prefix ``-mpm_``, so a scene file passed
+with ``-options_file`` sets them and the command line overrides any of them. Each option is
+declared once in :data:`SPEC` with its type, default, range check, the analyses that use it
+and a help line; the README's option table is generated from the same list
+(``python -m solver -help_mpm``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+
+from .errors import InputError
+
+PREFIX = "mpm_"
+EIGEN, CONSOLIDATION = "eigen", "consolidation"
+BOTH = (EIGEN, CONSOLIDATION)
+BC_CHOICES = ("none", "x", "y", "xy")
+
+
+@dataclass(frozen=True)
+class Option:
+    name: str            # without the prefix
+    kind: str            # "str", "int", "float", "bool", "ints", "floats", "strs"
+    default: object
+    help: str
+    used_by: tuple = BOTH
+    check: object = None  # callable(value) -> error text or None
+    choices: tuple = ()
+    length: int = 0      # fixed list length, 0 for any
+
+
+def _positive(v):
+    return None if v > 0 else "must be > 0"
+
+
+def _nonnegative(v):
+    return None if v >= 0 else "must be >= 0"
+
+
+def _all_positive(vs):
+    return None if all(v > 0 for v in vs) else "every entry must be > 0"
+
+
+def _all_at_least_one(vs):
+    return None if all(v >= 1 for v in vs) else "every entry must be >= 1"
+
+
+def _poisson(v):
+    return None if 0 <= v < 0.5 else "must lie in [0, 0.5)"
+
+
+def _open_unit(v):
+    return None if 0 < v < 1 else "must lie in (0, 1)"
+
+
+def _at_least_one(v):
+    return None if v >= 1 else "must be >= 1"
+
+
+def _tolerance(v):
+    return None if 0 < v < 1 else "must lie in (0, 1)"
+
+
+SPEC = [
+    Option("analysis", "str", EIGEN, "what to compute", choices=BOTH),
+    Option("element", "str", "q4", "background cell: q4 (bilinear), q8 (serendipity), "
+           "q9 (Lagrange)", choices=("q4", "q8", "q9")),
+    Option("cells", "ints", (1, 10), "cells across and up, NX,NY", length=2,
+           check=_all_at_least_one),
+    Option("size", "floats", (0.1, 1.0), "body width and height W,H (m); the grid covers it",
+           length=2, check=_all_positive),
+    Option("ppc", "int", 2, "material points per cell per direction", check=_at_least_one),
+    Option("points", "str", "uniform", "point placement: uniform (sub-cell centres, MPM) or "
+           "gauss (Gauss points: the plain FE model)", choices=("uniform", "gauss")),
+    Option("E", "float", 10.0e6, "Young's modulus of the soil skeleton (Pa)", check=_positive),
+    Option("nu", "float", 0.0, "Poisson's ratio", check=_poisson),
+    Option("rho_s", "float", 2700.0, "solid grain density (kg/m3)", check=_positive),
+    Option("rho_l", "float", 1000.0, "liquid density (kg/m3)", check=_positive),
+    Option("porosity", "float", 0.3, "porosity n", check=_open_unit),
+    Option("bc_left", "str", "x", "fixed displacement components on x = 0", choices=BC_CHOICES),
+    Option("bc_right", "str", "x", "fixed displacement components on x = W", choices=BC_CHOICES),
+    Option("bc_bottom", "str", "xy", "fixed displacement components on y = 0",
+           choices=BC_CHOICES),
+    Option("bc_top", "str", "none", "fixed displacement components on y = H",
+           choices=BC_CHOICES),
+    Option("nmodes", "int", 5, "eigenpairs to report", check=_at_least_one),
+    Option("eigen_solver", "strs", ("jacobi", "slepc"), "eigen solvers to run, one or both",
+           choices=("jacobi", "slepc")),
+    Option("jacobi_tol", "float", 1e-15, "Jacobi convergence tolerance xi, eq. (4)",
+           check=_tolerance),
+    Option("jacobi_max_sweeps", "int", 50, "Jacobi sweeps before giving up (exit code 3)",
+           check=_at_least_one),
+    Option("output", "str", "output", "folder for figures, fields and the summary"),
+    Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
+    Option("figures", "bool", True, "write PNG figures"),
+    Option("debug", "bool", False, "show the Python traceback of a failure"),
+]
+
+_BY_NAME = {o.name: o for o in SPEC}
+
+
+def _parse_float(text):
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError("not a finite number")
+    return value
+
+
+def _parse_int(text):
+    value = float(text)
+    if not math.isfinite(value) or value != int(value):
+        raise ValueError("not an integer")
+    return int(value)
+
+
+def _parse(opt: Option, text: str):
+    scalar = {"int": _parse_int, "ints": _parse_int,
+              "float": _parse_float, "floats": _parse_float}.get(opt.kind, str.strip)
+    if opt.kind in ("ints", "floats", "strs"):
+        parts = [p.strip() for p in text.split(",")]
+        if any(p == "" for p in parts):
+            raise ValueError("malformed list (empty entry)")
+        value = tuple(scalar(p) for p in parts)
+        if opt.length and len(value) != opt.length:
+            raise ValueError(f"needs {opt.length} comma-separated values")
+        if opt.kind == "strs" and len(set(value)) != len(value):
+            raise ValueError("repeated entry")
+        return value
+    return scalar(text)
+
+
+def _check_value(opt: Option, value):
+    values = value if isinstance(value, tuple) else (value,)
+    if opt.choices:
+        bad = [v for v in values if v not in opt.choices]
+        if bad:
+            return f"unknown value '{bad[0]}' (choose from {', '.join(opt.choices)})"
+    return opt.check(value) if opt.check else None
+
+
+def _describe(opt: Option, value) -> str:
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
+
+
+def read(spec=None, db=None) -> SimpleNamespace:
+    """Read, parse and check every ``-mpm_`` option; raise :class:`InputError` on the first fault.
+
+    ``db`` is a ``PETSc.Options`` (the global database when None). Options that no analysis
+    knows, or that the chosen analysis does not use, are errors with a suggestion of the
+    nearest valid name.
+    """
+    from petsc4py import PETSc
+
+    spec = SPEC if spec is None else spec
+    by_name = {o.name: o for o in spec}
+    db = PETSc.Options() if db is None else db
+    given = {k[len(PREFIX):]: v for k, v in db.getAll().items() if k.startswith(PREFIX)}
+
+    for name in given:
+        if name not in by_name:
+            near = difflib.get_close_matches(name, list(by_name), n=1)
+            hint = f" (did you mean -{PREFIX}{near[0]}?)" if near else ""
+            raise InputError(f"-{PREFIX}{name}: unknown option{hint}")
+
+    values = {}
+    for opt in spec:
+        text = given.get(opt.name)
+        if text is None:
+            values[opt.name] = opt.default
+            continue
+        text = str(text)
+        if opt.kind == "bool":
+            low = text.strip().lower()
+            if low in ("", "1", "true", "yes", "on"):
+                values[opt.name] = True
+            elif low in ("0", "false", "no", "off"):
+                values[opt.name] = False
+            else:
+                raise InputError(f"-{PREFIX}{opt.name}: '{text}' is not a boolean")
+            continue
+        if text.strip() == "":
+            raise InputError(f"-{PREFIX}{opt.name}: needs a value")
+        try:
+            value = _parse(opt, text)
+        except ValueError as exc:
+            raise InputError(f"-{PREFIX}{opt.name}: '{text}': {exc}") from None
+        problem = _check_value(opt, value)
+        if problem:
+            raise InputError(f"-{PREFIX}{opt.name} {_describe(opt, value)}: {problem}")
+        values[opt.name] = value
+
+    analysis = values["analysis"]
+    for name in given:
+        if analysis not in by_name[name].used_by:
+            raise InputError(f"-{PREFIX}{name}: not used by -{PREFIX}analysis {analysis}")
+    return SimpleNamespace(**values, given=tuple(sorted(given)))
+
+
+def table(spec=None) -> str:
+    """The option table as Markdown (for the README and ``-help_mpm``)."""
+    spec = SPEC if spec is None else spec
+    rows = ["| option | default | used by | meaning |", "|---|---|---|---|"]
+    for o in spec:
+        rows.append(f"| `-{PREFIX}{o.name}` | `{_describe(o, o.default)}` | "
+                    f"{', '.join(o.used_by)} | {o.help} |")
+    return "\n".join(rows)
