@@ -1,0 +1,75 @@
+"""Command line: ``mpirun -n N python -m solver -options_file cases/<scene>.opts [options]``.
+
+Exit codes: 0 success, 2 bad input, 3 numerical failure. Failures print one line on stderr
+(rank 0); ``-mpm_debug`` adds the Python traceback.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+
+def _options_files(argv):
+    """Paths given to -options_file / -options_file_yaml, checked before PETSc reads them."""
+    for flag, value in zip(argv, argv[1:] + [None]):
+        if flag in ("-options_file", "-options_file_yaml"):
+            yield flag, value
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv if argv is None else argv)
+    for flag, path in _options_files(argv):
+        if path is None or path.startswith("-"):
+            return _fail(f"{flag}: needs a file name", 2)
+        if not os.path.isfile(path):
+            return _fail(f"{flag} {path}: no such file", 2)
+
+    import petsc4py
+
+    petsc4py.init(argv)
+    import slepc4py
+
+    slepc4py.init(argv)
+    from petsc4py import PETSc
+
+    from . import options
+    from .errors import InputError, NumericalError
+
+    comm = PETSc.COMM_WORLD
+    if "-help" in argv or "-h" in argv:
+        PETSc.Sys.Print("Options of the MPM solver (SI units):\n" + options.table(), comm=comm)
+        return 0
+    debug = PETSc.Options().getBool("mpm_debug", False)
+    try:
+        params = options.read()
+        if params.analysis == "eigen":
+            from . import eigen
+
+            eigen.run(params, comm)
+        else:
+            from . import consolidation
+
+            code = consolidation.run(params, comm)
+            if code:
+                return code
+    except (InputError, NumericalError) as exc:
+        if debug:
+            raise
+        return _fail(str(exc), exc.exit_code, comm.getRank())
+    except PETSc.Error as exc:
+        if debug:
+            raise
+        return _fail(f"PETSc error {exc.ierr}: {exc}", 3, comm.getRank())
+    return 0
+
+
+def _fail(message: str, code: int, rank: int = 0) -> int:
+    if rank == 0:
+        sys.stderr.write(f"solver: error: {message}\n")
+        sys.stderr.flush()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,272 @@
+"""Eigenfrequency analysis of the soil model (paper Section 4, Table 3, Figure 2).
+
+K phi = omega^2 M phi with the material-point K and consistent M, solved by our generalized
+Jacobi solver (:mod:`solver.jacobi`) and by SLEPc's Krylov-Schur, cross-checked (relative
+eigenvalue difference, modal assurance criterion), and set beside the analytic 1D rod and the
+plain FE model of the same mesh (points at Gauss points).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+from petsc4py import PETSc
+from slepc4py import SLEPc
+
+from . import analytic, assembly, jacobi, output
+from .errors import InputError, NumericalError
+from .grid import Grid
+from .points import place
+
+# Table 3 of the paper (Hz): the MP models of a 1 x 10 grid over the 0.1 m x 1 m column.
+PAPER_TABLE3 = {"q4": [16.92, 51.27, 87.24, 126.03, 168.95],
+                "q8": [16.89, 50.62, 84.20, 117.62, 150.94],
+                "q9": [16.89, 50.62, 84.20, 117.62, 150.94]}
+PAPER_ABAQUS_CPE8 = [16.89, 50.68, 84.49, 118.37, 152.42]
+
+
+def mixture_density(p) -> float:
+    """Saturated density (1 - n) rho_s + n rho_l (kg/m3)."""
+    return (1 - p.porosity) * p.rho_s + p.porosity * p.rho_l
+
+
+def boundary_conditions(p) -> dict:
+    return {"left": p.bc_left, "right": p.bc_right, "bottom": p.bc_bottom, "top": p.bc_top}
+
+
+def build(comm, p, placement=None, ppc=None):
+    """Grid, points and the free-DOF K, M of the scene ``p`` (see :func:`assembly.stiffness_and_mass`)."""
+    grid = Grid(comm, p.element, p.cells, p.size)
+    points = place(grid, ppc or p.ppc, mixture_density(p), placement or p.points)
+    K, M, free = assembly.stiffness_and_mass(grid, points, p.E, p.nu, boundary_conditions(p))
+    return grid, points, K, M, free
+
+
+def slepc_solve(K, M, nmodes: int, which: str = "smallest"):
+    """Eigenpairs of K x = lambda M x by SLEPc (GHEP, Krylov-Schur).
+
+    ``which='smallest'``: shift-and-invert about 0 with a MUMPS LU (works in parallel);
+    ``'largest'``: plain Krylov-Schur for the largest eigenvalues. Any ``-eps_*``/``-st_*``
+    option overrides these defaults. Returns (eigenvalues ascending, eigenvectors, seconds).
+    """
+    t0 = time.perf_counter()
+    eps = SLEPc.EPS().create(K.getComm())
+    eps.setOperators(K, M)
+    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
+    eps.setDimensions(nev=nmodes)
+    eps.setTolerances(tol=1e-13, max_it=1000)
+    if which == "smallest":
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+        eps.setTarget(0.0)
+        st = eps.getST()
+        st.setType(SLEPc.ST.Type.SINVERT)
+        ksp = st.getKSP()
+        ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc = ksp.getPC()
+        pc.setType(PETSc.PC.Type.LU)
+        pc.setFactorSolverType("mumps")
+        eps.setFromOptions()
+    else:
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+    eps.solve()
+    nconv = eps.getConverged()
+    if nconv < nmodes:
+        raise NumericalError(f"SLEPc converged {nconv} of {nmodes} eigenpairs "
+                             f"(reason {eps.getConvergedReason()})")
+    values, vectors = [], []
+    for k in range(nconv):
+        v = K.createVecRight()
+        values.append(eps.getEigenpair(k, v).real)
+        vectors.append(v)
+    order = np.argsort(values)
+    if which == "largest":
+        order = order[::-1]
+    order = order[:nmodes]
+    result = (np.array(values)[order], [vectors[k] for k in order], time.perf_counter() - t0)
+    eps.destroy()
+    return result
+
+
+def mac(a, b) -> float:
+    """Modal assurance criterion (a.b)^2 / ((a.a)(b.b)) of two PETSc Vecs (1: same shape)."""
+    return a.dot(b) ** 2 / (a.dot(a) * b.dot(b))
+
+
+def frequencies(eigenvalues) -> np.ndarray:
+    """omega^2 (rad2/s2) -> f (Hz)."""
+    return np.sqrt(np.maximum(np.asarray(eigenvalues), 0.0)) / (2 * np.pi)
+
+
+def is_paper_scene(p) -> bool:
+    return (tuple(p.cells) == (1, 10) and np.allclose(p.size, (0.1, 1.0))
+            and p.E == 10e6 and p.nu == 0.0 and p.points == "uniform"
+            and p.ppc == (2 if p.element == "q4" else 3)
+            and abs(mixture_density(p) - 2190.0) < 1e-9
+            and boundary_conditions(p) == {"left": "x", "right": "x", "bottom": "xy",
+                                           "top": "none"})
+
+
+def run(p, comm) -> dict:
+    """The eigen analysis of scene ``p``: solve, compare, print, write; returns the summary."""
+    rank = comm.getRank()
+    stage = PETSc.Log.Stage("Assembly")
+    stage.push()
+    grid, points, K, M, free = build(comm, p)
+    stage.pop()
+    n = K.getSize()[0]
+    if n == 0:
+        raise InputError("-mpm_bc_*: every DOF is fixed; nothing left to vibrate")
+    if p.nmodes > n:
+        raise InputError(f"-mpm_nmodes {p.nmodes}: the model has only {n} free DOFs")
+    PETSc.Sys.Print(f"Eigen analysis: {p.element.upper()}, {p.cells[0]} x {p.cells[1]} cells, "
+                    f"{points.n_global} material points, {n} free DOFs, {comm.getSize()} rank(s)",
+                    comm=comm)
+
+    freq, vecs, summary = {}, {}, {"analysis": "eigen", "ranks": comm.getSize(), "ndof": n,
+                                   "element": p.element, "cells": list(p.cells),
+                                   "size_m": list(p.size), "ppc": p.ppc, "points": p.points,
+                                   "n_points": points.n_global,
+                                   "density_kg_m3": mixture_density(p)}
+    if "jacobi" in p.eigen_solver:
+        stage = PETSc.Log.Stage("Jacobi")
+        stage.push()
+        res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
+        stage.pop()
+        freq["jacobi"], vecs["jacobi"] = frequencies(res.eigenvalues[:p.nmodes]), res.vectors
+        summary["jacobi"] = {"sweeps": res.sweeps, "seconds": res.seconds, "tol": p.jacobi_tol,
+                             "coupling": res.coupling, "eigenvalue_change": res.change}
+        PETSc.Sys.Print(f"Jacobi: {res.sweeps} sweeps to tolerance {p.jacobi_tol:.0e}, "
+                        f"{res.seconds:.3f} s", comm=comm)
+    if "slepc" in p.eigen_solver:
+        stage = PETSc.Log.Stage("SLEPc")
+        stage.push()
+        values, vectors, seconds = slepc_solve(K, M, p.nmodes)
+        stage.pop()
+        freq["slepc"], vecs["slepc"] = frequencies(values), vectors
+        summary["slepc"] = {"seconds": seconds}
+        PETSc.Sys.Print(f"SLEPc Krylov-Schur: {seconds:.3f} s", comm=comm)
+    summary["frequencies_hz"] = {k: v for k, v in freq.items()}
+
+    if len(freq) == 2:
+        rel = np.abs(freq["jacobi"] ** 2 - freq["slepc"] ** 2) / freq["slepc"] ** 2
+        macs = [mac(a, b) for a, b in zip(vecs["jacobi"], vecs["slepc"])]
+        summary["cross_check"] = {"relative_eigenvalue_difference": rel, "mac": macs}
+
+    # References: the 1D rod and the plain FE model (Gauss points) of the same mesh.
+    E_c = assembly.constrained_modulus(p.E, p.nu)
+    rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
+    fe_ppc = 2 if p.element == "q4" else 3
+    _, _, Kg, Mg, _ = build(comm, p, placement="gauss", ppc=fe_ppc)
+    fe = frequencies(slepc_solve(Kg, Mg, p.nmodes)[0])
+    refs = {"rod_hz": rod, "fe_gauss_hz": fe}
+    if is_paper_scene(p):
+        refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]
+        refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:p.nmodes]
+    summary["references"] = refs
+    _print_table(comm, freq, refs, summary.get("cross_check"))
+
+    summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
+                                      freq.get("jacobi", freq.get("slepc")), rod, summary)
+    for obj in (K, M, Kg, Mg, free):
+        obj.destroy()
+    return summary
+
+
+def _print_table(comm, freq, refs, cross):
+    cols = [("Jacobi", freq.get("jacobi")), ("SLEPc", freq.get("slepc")),
+            ("1D rod", refs["rod_hz"]), ("FE Gauss", refs["fe_gauss_hz"]),
+            ("paper", refs.get("paper_table3_hz"))]
+    cols = [(name, v) for name, v in cols if v is not None]
+    head = "mode " + "".join(f"{name:>11s}" for name, _ in cols)
+    if cross:
+        head += f"{'rel diff':>11s}{'MAC':>9s}"
+    lines = ["Natural frequencies (Hz)", head]
+    for k in range(len(cols[0][1])):
+        row = f"{k + 1:4d} " + "".join(f"{v[k]:11.2f}" for _, v in cols)
+        if cross:
+            row += (f"{cross['relative_eigenvalue_difference'][k]:11.1e}"
+                    f"{cross['mac'][k]:9.5f}")
+        lines.append(row)
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+def _full_modes(grid, free, vectors):
+    """Mode vectors of the free DOFs spread on the whole lattice, gathered on rank 0 (N, 2)."""
+    full = grid.da.createGlobalVec()
+    at = free.getIndices()
+    modes = []
+    for v in vectors:
+        full.set(0.0)
+        full.setValues(at, v.getArray())
+        full.assemble()
+        modes.append(grid.gather_natural(full))
+    full.destroy()
+    return modes
+
+
+def _write_results(p, grid, free, vectors, freqs, rod, summary):
+    comm = grid.comm
+    modes = _full_modes(grid, free, vectors)
+    summary_path = p.summary or os.path.join(p.output, "summary.json")
+    files = {"summary": summary_path}
+    if comm.getRank() != 0:
+        return files
+    coords = grid.lattice_coordinates()
+    # A common sign: the largest vertical displacement of each mode points up.
+    for k, u in enumerate(modes):
+        big = np.argmax(np.abs(u).max(axis=1))
+        comp = np.argmax(np.abs(u[big]))
+        modes[k] = u * np.sign(u[big, comp] or 1.0)
+    files["modes_vtu"] = os.path.join(p.output, "modes.vtu")
+    data = {f"mode_{k + 1}": np.column_stack([u, np.zeros(len(u))]) for k, u in enumerate(modes)}
+    output.write_vtu(files["modes_vtu"], coords, [output.grid_cells(grid)], point_data=data)
+    if p.figures:
+        files["modes_png"] = os.path.join(p.output, "modes.png")
+        mode_figure(files["modes_png"], grid, coords, modes, freqs, rod, p.size[1])
+    output.write_json(summary_path, dict(summary, files=files))
+    return files
+
+
+def mode_figure(path, grid, coords, modes, freqs, rod, H):
+    """Mode shapes like the paper's Figure 2: deformed grids and u_y along the column."""
+    plt = output.pyplot()
+    nm = len(modes)
+    fig, axes = plt.subplots(2, nm, figsize=(2.2 * nm, 7), squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 2]})
+    W = grid.size[0]
+    conn = output.grid_cells(grid)[1]
+    corners = conn[:, :4]
+    for k, u in enumerate(modes):
+        scale = 0.25 * max(W, 0.1 * H) / max(np.abs(u).max(), 1e-300)
+        xy = coords + scale * u
+        ax = axes[0, k]
+        for cell in corners:
+            ring = np.append(cell, cell[0])
+            ax.plot(coords[ring, 0], coords[ring, 1], color="0.85", lw=0.6)
+            ax.plot(xy[ring, 0], xy[ring, 1], color="tab:blue", lw=0.9)
+        mag = np.hypot(u[:, 0], u[:, 1])
+        ax.scatter(xy[:, 0], xy[:, 1], c=mag, s=6, cmap="viridis", zorder=3)
+        ax.set_title(f"mode {k + 1}\n{freqs[k]:.2f} Hz", fontsize=9)
+        ax.set_aspect("equal")
+        ax.axis("off")
+        ax = axes[1, k]
+        centre = np.isclose(coords[:, 0], coords[np.argmin(np.abs(coords[:, 0] - W / 2)), 0])
+        y = coords[centre, 1]
+        order = np.argsort(y)
+        uy = u[centre, 1][order]
+        ax.plot(uy / max(np.abs(uy).max(), 1e-300), y[order], "o-", ms=3, label="MPM")
+        yy = np.linspace(0, H, 200)
+        shape = analytic.rod_mode(yy, H, k + 1)
+        shape *= np.sign(np.dot(analytic.rod_mode(y[order], H, k + 1), uy)) or 1.0
+        ax.plot(shape, yy, "k--", lw=0.8,
+                label=f"rod {rod[k]:.2f} Hz" if k < len(rod) else "rod")
+        ax.set_xlabel("u_y (normalised)", fontsize=8)
+        if k == 0:
+            ax.set_ylabel("height y (m)")
+        ax.legend(fontsize=6, loc="lower left")
+        ax.tick_params(labelsize=7)
+    fig.suptitle(f"Mode shapes, {grid.element.upper()} background grid")
+    output.save_figure(fig, path)
