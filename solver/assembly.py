@@ -37,6 +37,24 @@ def interpolation(grid, x) -> Interpolation:
     return Interpolation(N, dNdx, nodes, grid.local_dofs(i, j), (cx, cy))
 
 
+def lumping_weights(N, kind: str) -> np.ndarray:
+    """Weights w_ap (np, nen) that spread a point's mass-like quantities onto its nodes.
+
+    ``rowsum``: w = N, the usual MPM lumping (row sums of the consistent matrix).
+    ``hrz``: w = N^2 / sum_b N_b^2, diagonal scaling (Hinton, Rock and Zienkiewicz) per
+    point; always positive, which Q8 needs: its corner row sums are negative.
+    Both sum to 1 over a point's nodes, so mass and momentum are conserved.
+    """
+    if kind == "rowsum":
+        return N
+    N2 = N * N
+    return N2 / N2.sum(axis=1, keepdims=True)
+
+
+def default_lumping(element: str) -> str:
+    return "hrz" if element == "q8" else "rowsum"
+
+
 def elasticity(E: float, nu: float) -> np.ndarray:
     """Plane-strain elasticity matrix D (Pa) for stresses (xx, yy, xy) and engineering strains."""
     lam = E * nu / ((1 + nu) * (1 - 2 * nu))
@@ -71,9 +89,9 @@ def point_matrices(interp: Interpolation, D, volume, mass):
     return Ke, Me
 
 
-def assemble(grid, blocks, dofs) -> PETSc.Mat:
-    """A parallel Mat over the grid's DOFs from per-point blocks at ghosted-local DOFs."""
-    A = grid.da.createMat()
+def assemble(da, blocks, dofs) -> PETSc.Mat:
+    """A parallel Mat over the DMDA's DOFs from per-point blocks at ghosted-local DOFs."""
+    A = da.createMat()
     A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
     idx = np.ascontiguousarray(dofs, dtype=PETSc.IntType)
     if idx.shape[0]:
@@ -83,14 +101,15 @@ def assemble(grid, blocks, dofs) -> PETSc.Mat:
     return A
 
 
-def free_dofs(grid, M, bcs) -> PETSc.IS:
-    """Global indices of the free DOFs: supported by a point (M_ii > 0) and not fixed."""
+def free_dofs(M, fixed, comm) -> PETSc.IS:
+    """Global indices of the free DOFs: supported by a point (M_ii > 0) and not ``fixed``
+    (a mask over the owned DOFs)."""
     diag = M.getDiagonal()
-    free = (diag.getArray() > 0) & ~grid.constrained_mask(bcs)
+    free = (diag.getArray() > 0) & ~fixed
     start = M.getOwnershipRange()[0]
     diag.destroy()
     return PETSc.IS().createGeneral(start + np.flatnonzero(free).astype(PETSc.IntType),
-                                    comm=grid.comm)
+                                    comm=comm)
 
 
 def stiffness_and_mass(grid, points, E, nu, bcs):
@@ -101,9 +120,9 @@ def stiffness_and_mass(grid, points, E, nu, bcs):
     x, volume, mass = points.get("x", "volume", "mass")
     interp = interpolation(grid, x)
     Ke, Me = point_matrices(interp, elasticity(E, nu), volume, mass)
-    K = assemble(grid, Ke, interp.dofs)
-    M = assemble(grid, Me, interp.dofs)
-    free = free_dofs(grid, M, bcs)
+    K = assemble(grid.da, Ke, interp.dofs)
+    M = assemble(grid.da, Me, interp.dofs)
+    free = free_dofs(M, grid.constrained_mask(bcs), grid.comm)
     Kf = K.createSubMatrix(free, free)
     Mf = M.createSubMatrix(free, free)
     K.destroy()

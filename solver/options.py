@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 from .errors import InputError
@@ -95,6 +95,41 @@ SPEC = [
            check=_tolerance),
     Option("jacobi_max_sweeps", "int", 50, "Jacobi sweeps before giving up (exit code 3)",
            check=_at_least_one),
+    # -- two-phase consolidation --------------------------------------------------------
+    Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", (CONSOLIDATION,), _positive),
+    Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", (CONSOLIDATION,),
+           _positive),
+    Option("k", "float", 2.5e-4, "hydraulic conductivity (m/s), defined with g = 9.81 m/s2",
+           (CONSOLIDATION,), _positive),
+    Option("gravity", "float", 0.0, "body force, acting downwards (m/s2)", (CONSOLIDATION,),
+           _nonnegative),
+    Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
+           (CONSOLIDATION,), _nonnegative),
+    Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
+           (CONSOLIDATION,), _nonnegative),
+    Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable",
+           (CONSOLIDATION,), choices=("left", "right", "bottom", "top")),
+    Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
+           "smallest critical time step", (CONSOLIDATION,), _positive),
+    Option("dt_safety", "float", 0.8, "fraction of the smallest critical time step used",
+           (CONSOLIDATION,), lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
+    Option("Tv_end", "float", 1.0, "end of the run as Terzaghi time factor T_v",
+           (CONSOLIDATION,), _positive),
+    Option("Tv_report", "floats", (0.02, 0.5, 1.0), "T_v at which pore pressures are reported",
+           (CONSOLIDATION,), _all_positive),
+    Option("monitor_height", "float", float("nan"), "height of the monitor point (m); "
+           "default: the highest material point below mid-height", (CONSOLIDATION,)),
+    Option("output_every", "int", 0, "write point fields every N steps (0: at report times)",
+           (CONSOLIDATION,), _nonnegative),
+    Option("damping", "float", 0.5, "local (Cundall) damping coefficient of the nodal "
+           "accelerations, 0 for none", (CONSOLIDATION,),
+           lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
+    Option("flip", "float", 1.0, "FLIP fraction of the point velocity update (0: PIC)",
+           (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
+    Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
+           (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
+    Option("progress", "float", 10.0, "seconds between progress lines (0: none)",
+           (CONSOLIDATION,), _nonnegative),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write PNG figures"),

@@ -23,7 +23,7 @@ def _lattice(p, skip_centre=False):
 OFFSETS = {"q4": _lattice(1), "q8": _lattice(2, skip_centre=True), "q9": _lattice(2)}
 
 
-def _lagrange1d(p, s):
+def lagrange1d(p, s):
     """Values and derivatives of the 1D Lagrange polynomials of order p at s (n,) -> (n, p+1)."""
     s = np.asarray(s, dtype=float)[:, None]
     if p == 1:
@@ -46,8 +46,8 @@ def evaluate(element: str, xi, eta):
     if element == "q8":
         return _serendipity(xi, eta, off)
     p = ORDER[element]
-    vx, dx = _lagrange1d(p, xi)
-    vy, dy = _lagrange1d(p, eta)
+    vx, dx = lagrange1d(p, xi)
+    vy, dy = lagrange1d(p, eta)
     i, j = off[:, 0], off[:, 1]
     N = vx[:, i] * vy[:, j]
     dN = np.stack([dx[:, i] * vy[:, j], vx[:, i] * dy[:, j]], axis=-1)

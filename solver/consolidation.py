@@ -1,0 +1,354 @@
+"""One-dimensional consolidation of the soil column (paper Section 5, Tables 1, 4, 5, Figs 3-5).
+
+Drives :mod:`solver.twophase` from t = 0 to T_v = ``-mpm_Tv_end``: critical time steps first
+(:mod:`solver.timestep`, with the fundamental frequency from :mod:`solver.eigen`), then the
+explicit steps with a progress line, the monitor point and whole profiles compared at the
+report times with two analytic references:
+- classic Terzaghi: p0 = q, c_v = k E_c / gamma_w (what the paper compares against);
+- consistent Terzaghi: p0 = q (K_l/n) / (K_l/n + E_c), diffusivity c2 (compressible water),
+  which isolates the numerical error.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+from petsc4py import PETSc
+
+from . import analytic, assembly, eigen, jacobi, output, timestep
+from .errors import InputError, NumericalError
+from .grid import Grid
+from .points import place
+from .twophase import POINT_FIELDS, TwoPhase
+
+ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
+
+
+def _validate(p):
+    H = p.size[1]
+    if not math.isnan(p.monitor_height) and not 0 <= p.monitor_height <= H:
+        raise InputError(f"-mpm_monitor_height {p.monitor_height}: outside the body "
+                         f"(0 to {H} m)")
+    late = [t for t in p.Tv_report if t > p.Tv_end * (1 + 1e-12)]
+    if late:
+        raise InputError(f"-mpm_Tv_report {late[0]}: after -mpm_Tv_end {p.Tv_end}")
+    if p.load == 0 and p.gravity == 0:
+        raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
+
+
+def references(p):
+    """Scales of both analytic references: (c_v, c2, p0_consistent / q)."""
+    E_c = assembly.constrained_modulus(p.E, p.nu)
+    gw = timestep.unit_weight(p)
+    cv = analytic.consolidation_coefficient(p.k, E_c, gw)
+    c2 = analytic.consistent_coefficient(p.k, E_c, gw, p.K_l, p.porosity)
+    return cv, c2, analytic.undrained_pressure(1.0, E_c, p.K_l, p.porosity)
+
+
+def fundamental_frequency(comm, p) -> float:
+    """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3."""
+    _, pts, K, M, free = eigen.build(comm, p)
+    if p.eigen_solver[0] == "jacobi":
+        lam = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps).eigenvalues[0]
+    else:
+        lam = eigen.slepc_solve(K, M, 1)[0][0]
+    for obj in (K, M, free):
+        obj.destroy()
+    pts.destroy()
+    return float(eigen.frequencies([lam])[0])
+
+
+def run(p, comm) -> int:
+    """Run the consolidation scene ``p``; returns 0, or raises NumericalError after writing
+    the summary of a run that blew up."""
+    _validate(p)
+    t_wall = time.perf_counter()
+    mpi = comm.tompi4py()
+    from mpi4py import MPI
+
+    H = p.size[1]
+    bcs = eigen.boundary_conditions(p)
+    lumping = assembly.default_lumping(p.element) if p.lumping == "auto" else p.lumping
+    grid = Grid(comm, p.element, p.cells, p.size)
+    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
+    with points.fields("x", "y0", "monitor") as (x, y0, mon):
+        y0[:] = x[:, 1]
+        if math.isnan(p.monitor_height):
+            below = y0[y0 < H / 2 - 1e-12 * H]
+            target = mpi.allreduce(float(below.max()) if below.size else -np.inf, op=MPI.MAX)
+        else:
+            near = y0[np.argmin(np.abs(y0 - p.monitor_height))] if y0.size else np.inf
+            dist = mpi.allreduce(abs(near - p.monitor_height), op=MPI.MIN)
+            cand = near if abs(abs(near - p.monitor_height) - dist) < 1e-12 * H else -np.inf
+            target = mpi.allreduce(cand, op=MPI.MAX)
+        mon[:] = np.abs(y0 - target) < 1e-9 * H
+    monitor_height = float(target)
+
+    # Critical time steps.
+    stage = PETSc.Log.Stage("Critical time steps")
+    stage.push()
+    f1 = fundamental_frequency(comm, p)
+    dt_discrete = timestep.discrete_limit(grid, points, p, bcs, lumping)
+    limits = timestep.criteria(p, f1, dt_discrete, grid)
+    stage.pop()
+    smallest = min(limits, key=limits.get)
+    dt = p.dt if not math.isnan(p.dt) else p.dt_safety * limits[smallest]
+    exceeded = [k for k, v in limits.items() if dt > v]
+    speeds = timestep.wave_speeds(p)
+    _print_limits(comm, limits, dt, smallest, speeds, f1, p)
+    if exceeded:
+        msg = (f"WARNING: dt = {dt:.4g} s exceeds the critical time step(s) "
+               + ", ".join(f"{k} {limits[k]:.4g} s" for k in exceeded)
+               + ("" if set(exceeded) <= {"oscillator", "cfl", "diffusion"}
+                  else ": expect the run to blow up"))
+        PETSc.Sys.Print("!" * len(msg) + "\n" + msg + "\n" + "!" * len(msg), comm=comm)
+
+    cv, c2, p0 = references(p)
+    t_end = p.Tv_end * H * H / cv
+    nsteps = int(math.ceil(t_end / dt - 1e-9))
+    report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in p.Tv_report}
+    iso_steps = {int(round(tv * H * H / (cv * dt))): tv
+                 for tv in sorted(set(ISOCHRONES) | set(p.Tv_report)) if tv <= p.Tv_end + 1e-12}
+    PETSc.Sys.Print(f"Consolidation: {p.element.upper()}, {p.cells[0]} x {p.cells[1]} cells, "
+                    f"{points.n_global} material points, {comm.getSize()} rank(s); "
+                    f"c_v = {cv:.4g} m2/s, T_v = {p.Tv_end} at t = {t_end:.4g} s: "
+                    f"{nsteps} steps of {dt:.4g} s; monitor at y = {monitor_height:.5g} m",
+                    comm=comm)
+
+    model = TwoPhase(grid, points, p, bcs, lumping)
+    q = p.load
+    scale = max(q, eigen.mixture_density(p) * p.gravity * H, 1.0)
+    files = {}
+    series = _Series(p.output, comm)
+    history = []          # (t, Tv, p/q at the monitor)
+    reports, profiles = [], []
+    summary = {"analysis": "consolidation", "ranks": comm.getSize(), "element": p.element,
+               "cells": list(p.cells), "ppc": p.ppc, "n_points": points.n_global,
+               "steps": 0, "dt": dt, "wall_seconds": 0.0, "stable": True,
+               "dt_critical": limits, "dt_governing": smallest, "dt_exceeds": exceeded,
+               "lumping": lumping, "damping": p.damping, "flip": p.flip,
+               "f1_hz": f1, "c_v": cv, "c2": c2,
+               "p0_consistent_over_q": p0}
+    summary_path = p.summary or os.path.join(p.output, "summary.json")
+    stage = PETSc.Log.Stage("Explicit steps")
+    stage.push()
+    last_print = time.perf_counter()
+    k = 0
+    try:
+        for k in range(1, nsteps + 1):
+            t = k * dt
+            ramp = 1.0 if p.load_ramp <= 0 else min(1.0, (k - 1) * dt / p.load_ramp)
+            model.step(dt, ramp, p.damping, p.flip)
+            model.migrate_if_needed()
+            if k % 50 == 0 or k == nsteps or k in iso_steps:
+                model.check(k, t, scale)
+            if k % 10 == 0 or k in iso_steps:
+                history.append((t, cv * t / (H * H), _monitor(points, mpi) / q))
+            if k in iso_steps:
+                prof = _profile(points, comm)
+                if comm.getRank() == 0:
+                    profiles.append((iso_steps[k], t, prof))
+                if k in report_steps:
+                    reports.append(_report(report_steps[k], t, points, mpi, p, monitor_height,
+                                           cv, c2, p0, prof if comm.getRank() == 0 else None))
+            if (p.output_every and k % p.output_every == 0) or k in iso_steps:
+                series.write(points, k, t, cv * t / (H * H))
+            if p.progress and time.perf_counter() - last_print > p.progress:
+                last_print = time.perf_counter()
+                el = last_print - t_wall
+                PETSc.Sys.Print(f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), t = {t:.4g} s, "
+                                f"T_v = {cv * t / H ** 2:.4f}, p/q(monitor) = "
+                                f"{history[-1][2] if history else float('nan'):.4f}, "
+                                f"{el:.0f} s elapsed, about {el / k * (nsteps - k):.0f} s left",
+                                comm=comm)
+        where = model.outside()
+        if where is not None:
+            raise NumericalError(f"material point {where[0]} left the grid at "
+                                 f"({where[1][0]:.4g}, {where[1][1]:.4g}) m by step {k}")
+    except NumericalError as exc:
+        stage.pop()
+        summary.update(stable=False, steps=k, failure=str(exc),
+                       wall_seconds=time.perf_counter() - t_wall)
+        if comm.getRank() == 0:
+            output.write_json(summary_path, dict(summary, files={"summary": summary_path}))
+        raise
+    stage.pop()
+
+    summary["steps"] = nsteps
+    summary["wall_seconds"] = time.perf_counter() - t_wall
+    summary["monitor"] = {"height": monitor_height,
+                          "Tv": [r["Tv"] for r in reports],
+                          "p_over_q": [r["p_over_q"] for r in reports],
+                          "terzaghi": [r["terzaghi"] for r in reports],
+                          "error_pct": [r["error_pct"] for r in reports],
+                          "consistent": [r["consistent"] for r in reports],
+                          "error_consistent_pct": [r["error_consistent_pct"] for r in reports]}
+    summary["profile_l2"] = {"Tv": [r["Tv"] for r in reports],
+                             "terzaghi": [r["l2_terzaghi"] for r in reports],
+                             "consistent": [r["l2_consistent"] for r in reports]}
+    _print_reports(comm, reports, p)
+    files["summary"] = summary_path
+    files["fields_pvd"] = series.pvd
+    if comm.getRank() == 0:
+        files.update(_write_files(p, profiles, history, cv, c2, p0, monitor_height))
+        output.write_json(summary_path, dict(summary, files=files))
+    PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
+                    comm=comm)
+    return 0
+
+
+def _monitor(points, mpi):
+    from mpi4py import MPI
+
+    with points.fields("p", "monitor") as (pp, mon):
+        s = np.array([float(np.sum(pp * mon)), float(np.sum(mon))])
+    s = mpi.allreduce(s, op=MPI.SUM)
+    return s[0] / s[1]
+
+
+def _profile(points, comm):
+    """(y0, p, volume, x) of every point, gathered on rank 0 (None elsewhere)."""
+    y0, pp, V, x = points.get("y0", "p", "volume", "x")
+    parts = comm.tompi4py().gather(np.column_stack([y0, pp, V, x[:, 0]]), root=0)
+    return np.concatenate(parts) if parts is not None else None
+
+
+def _report(Tv, t, points, mpi, p, height, cv, c2, p0, prof):
+    H, q = p.size[1], p.load
+    num = _monitor(points, mpi) / q
+    ref = float(analytic.terzaghi(H - height, Tv, H))
+    con = float(analytic.terzaghi(H - height, Tv * c2 / cv, H, p0))
+    r = {"Tv": Tv, "t": t, "p_over_q": num, "terzaghi": ref, "consistent": con,
+         "error_pct": 100 * (num - ref) / ref, "error_consistent_pct": 100 * (num - con) / con}
+    l2 = [None, None]
+    if prof is not None:
+        depth = H - prof[:, 0]
+        for i, exact in enumerate([analytic.terzaghi(depth, Tv, H),
+                                   analytic.terzaghi(depth, Tv * c2 / cv, H, p0)]):
+            l2[i] = float(np.sqrt(np.sum(prof[:, 2] * (prof[:, 1] / q - exact) ** 2)
+                                  / np.sum(prof[:, 2])))
+    l2 = mpi.bcast(l2, root=0)
+    r["l2_terzaghi"], r["l2_consistent"] = l2
+    return r
+
+
+def _print_limits(comm, limits, dt, smallest, speeds, f1, p):
+    notes = {"cfl": f"L/c, c = {speeds['c']:.2f} m/s",
+             "undrained": f"L/c1, c1 = {speeds['c1']:.1f} m/s",
+             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4f} m2/s",
+             "oscillator": f"L/c3, c3 = 2 pi f1 H = {2 * np.pi * f1 * p.size[1]:.2f} m/s "
+                           f"(f1 = {f1:.2f} Hz)",
+             "drag": f"2/lambda, lambda = {timestep.drag_rate(p):.0f} 1/s",
+             "discrete": "exact limit of the discrete two-phase step, drag included"}
+    lines = ["Critical time steps (s):"]
+    lines += [f"  {k:<11s}{v:11.3e}   {notes[k]}" for k, v in limits.items()]
+    how = ("given by -mpm_dt" if not math.isnan(p.dt)
+           else f"{p.dt_safety} x {smallest}")
+    lines.append(f"  used       {dt:11.3e}   ({how})")
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+def _print_reports(comm, reports, p):
+    lines = ["Normalised pore pressure p/q at the monitor point (Tables 4 and 5):",
+             f"{'T_v':>6s}{'p/q':>9s}{'Terzaghi':>10s}{'error':>9s}{'consistent':>12s}"
+             f"{'error':>9s}{'L2 Terz.':>10s}{'L2 cons.':>10s}"]
+    for r in reports:
+        lines.append(f"{r['Tv']:6.2f}{r['p_over_q']:9.3f}{r['terzaghi']:10.3f}"
+                     f"{r['error_pct']:8.2f}%{r['consistent']:12.3f}"
+                     f"{r['error_consistent_pct']:8.2f}%{r['l2_terzaghi']:10.4f}"
+                     f"{r['l2_consistent']:10.4f}")
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+class _Series:
+    """Point fields as a VTU time series with a ParaView .pvd index, each file written whole."""
+
+    def __init__(self, folder, comm):
+        self.folder, self.comm = folder, comm
+        self.pvd = os.path.join(folder, "points.pvd")
+        self.entries = []
+
+    def write(self, points, step, t, Tv):
+        x, pp, sig, vs, vl = points.get("x", "p", "stress", "vs", "vl")
+        data = np.column_stack([x, pp, sig, vs, vl])
+        parts = self.comm.tompi4py().gather(data, root=0)
+        if self.comm.getRank() != 0:
+            return
+        d = np.concatenate(parts)
+        name = f"points_{step:07d}.vtu"
+        z = np.zeros((len(d), 1))
+        output.write_vtu(os.path.join(self.folder, name), d[:, 0:2],
+                         [("vertex", np.arange(len(d)).reshape(-1, 1))],
+                         point_data={"pore_pressure": d[:, 2],
+                                     "effective_stress": d[:, 3:6],
+                                     "velocity_solid": np.hstack([d[:, 6:8], z]),
+                                     "velocity_liquid": np.hstack([d[:, 8:10], z])})
+        self.entries.append((t, name))
+        body = "\n".join(f'    <DataSet timestep="{tt:.9g}" file="{f}"/>'
+                         for tt, f in self.entries)
+        text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                f"  <Collection>\n{body}\n  </Collection>\n</VTKFile>\n")
+        with output.atomic(self.pvd) as tmp:
+            with open(tmp, "w") as fh:
+                fh.write(text)
+
+
+def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
+    """Isochrones (Figs 4-5), the pressure field (Fig 3), the monitor history; rank 0."""
+    files = {}
+    hist = np.array(history) if history else np.zeros((0, 3))
+    files["monitor_csv"] = os.path.join(p.output, "monitor.csv")
+    with output.atomic(files["monitor_csv"]) as tmp:
+        np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q", comments="")
+    if not p.figures:
+        return files
+    plt = output.pyplot()
+    H, q = p.size[1], p.load
+    files["isochrones_png"] = os.path.join(p.output, "isochrones.png")
+    fig, ax = plt.subplots(figsize=(6, 6))
+    z = np.linspace(0, H, 300)
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(profiles), 1)))
+    for (Tv, _, prof), col in zip(profiles, colors):
+        ax.plot(analytic.terzaghi(z, Tv, H), H - z, "-", color=col, lw=1.2)
+        ax.plot(analytic.terzaghi(z, Tv * c2 / cv, H, p0), H - z, ":", color=col, lw=1)
+        ax.plot(prof[:, 1] / q, prof[:, 0], "o", color=col, ms=3, label=f"T_v = {Tv:g}")
+    ax.plot([], [], "k-", label="Terzaghi (classic)")
+    ax.plot([], [], "k:", label="Terzaghi (compressible water)")
+    ax.set_xlabel("p / q")
+    ax.set_ylabel("height (m)")
+    ax.set_xlim(0, 1.1)
+    ax.set_title(f"Isochrones, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
+    ax.legend(fontsize=7, loc="lower left")
+    ax.grid(alpha=0.3)
+    output.save_figure(fig, files["isochrones_png"])
+
+    files["pressure_field_png"] = os.path.join(p.output, "pressure_field.png")
+    shown = [pr for pr in profiles if pr[0] in p.Tv_report] or profiles[-1:]
+    fig, axes = plt.subplots(1, len(shown), figsize=(2.2 * len(shown) + 1, 6), squeeze=False)
+    for ax, (Tv, _, prof) in zip(axes[0], shown):
+        sc = ax.scatter(prof[:, 3], prof[:, 0], c=prof[:, 1] / 1e3, s=12, cmap="jet",
+                        vmin=0, vmax=q / 1e3)
+        ax.set_title(f"T_v = {Tv:g}", fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_xticks([])
+    fig.colorbar(sc, ax=list(axes[0]), label="pore pressure (kPa)")
+    fig.suptitle(f"Pore pressure field, {p.element.upper()}, {len(shown[0][2])} MPs")
+    output.save_figure(fig, files["pressure_field_png"])
+
+    files["monitor_png"] = os.path.join(p.output, "monitor.png")
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(hist[:, 1], hist[:, 2], lw=0.8, label="MPM")
+    Tv = np.linspace(1e-4, p.Tv_end, 400)
+    ax.plot(Tv, analytic.terzaghi(H - monitor_height, Tv, H), "k-", lw=1, label="Terzaghi")
+    ax.plot(Tv, analytic.terzaghi(H - monitor_height, Tv * c2 / cv, H, p0), "k:", lw=1,
+            label="compressible water")
+    ax.set_xscale("log")
+    ax.set_xlabel("T_v")
+    ax.set_ylabel("p / q at the monitor point")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    output.save_figure(fig, files["monitor_png"])
+    return files
