@@ -111,7 +111,7 @@ SPEC = [
            (CONSOLIDATION,), choices=("left", "right", "bottom", "top")),
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
            "smallest critical time step", (CONSOLIDATION,), _positive),
-    Option("dt_safety", "float", 0.8, "fraction of the smallest critical time step used",
+    Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
            (CONSOLIDATION,), lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
     Option("Tv_end", "float", 1.0, "end of the run as Terzaghi time factor T_v",
            (CONSOLIDATION,), _positive),
