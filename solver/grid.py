@@ -14,6 +14,42 @@ from petsc4py import PETSc
 from . import shapes
 
 
+def _split(cells: int, parts: int):
+    """Cells per part, as even as possible."""
+    return [cells // parts + (1 if i < cells % parts else 0) for i in range(parts)]
+
+
+def partition(cells, p: int, size: int):
+    """Process grid and node ownership ranges that cut the lattice along cell boundaries.
+
+    Every rank gets whole cells, hence at least p node columns and rows, which the DMDA's
+    stencil of width p requires. Among the factorisations px * py = size with px <= NX and
+    py <= NY the one with the shortest cut wins. Raises InputError when none fits.
+    """
+    from .errors import InputError
+
+    nx, ny = cells
+    best = None
+    for px in range(1, size + 1):
+        if size % px:
+            continue
+        py = size // px
+        if px <= nx and py <= ny:
+            cut = (px - 1) * ny + (py - 1) * nx
+            if best is None or cut < best[0]:
+                best = (cut, px, py)
+    if best is None:
+        raise InputError(f"-mpm_cells {nx},{ny}: too few cells for {size} MPI ranks "
+                         "(each rank needs at least one whole cell)")
+    _, px, py = best
+    ranges = []
+    for n, parts in ((nx, px), (ny, py)):
+        nodes = [p * c for c in _split(n, parts)]
+        nodes[-1] += 1
+        ranges.append(nodes)
+    return (px, py), tuple(ranges)
+
+
 class Grid:
     """Background grid of ``cells = (NX, NY)`` cells over ``[0, W] x [0, H]`` (m)."""
 
@@ -26,7 +62,9 @@ class Grid:
         self.h = (self.size[0] / self.cells[0], self.size[1] / self.cells[1])
         self.nodes = (self.p * self.cells[0] + 1, self.p * self.cells[1] + 1)
         self.offsets = shapes.OFFSETS[element]
-        self.da = PETSc.DMDA().create(dim=2, dof=2, sizes=self.nodes, stencil_type="box",
+        procs, ranges = partition(self.cells, self.p, comm.getSize())
+        self.da = PETSc.DMDA().create(dim=2, dof=2, sizes=self.nodes, proc_sizes=procs,
+                                      ownership_ranges=ranges, stencil_type="box",
                                       stencil_width=self.p, comm=comm)
         self.da.setUniformCoordinates(0.0, self.size[0], 0.0, self.size[1])
         (self.xs, self.xe), (self.ys, self.ye) = self.da.getRanges()
