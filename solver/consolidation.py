@@ -91,7 +91,7 @@ def run(p, comm) -> int:
     stage = PETSc.Log.Stage("Critical time steps")
     stage.push()
     f1 = fundamental_frequency(comm, p)
-    dt_discrete = timestep.discrete_limit(grid, points, p, bcs, lumping)
+    dt_discrete, patch = timestep.discrete_limit(comm, p, lumping)
     limits = timestep.criteria(p, f1, dt_discrete, grid)
     stage.pop()
     smallest = min(limits, key=limits.get)
@@ -100,7 +100,7 @@ def run(p, comm) -> int:
     dt = p.dt if not math.isnan(p.dt) else _round_down(p.dt_safety * limits[smallest], 3)
     exceeded = [k for k, v in limits.items() if dt > v]
     speeds = timestep.wave_speeds(p)
-    _print_limits(comm, limits, dt, smallest, speeds, f1, p)
+    _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch)
     if exceeded:
         msg = (f"WARNING: dt = {dt:.4g} s exceeds the critical time step(s) "
                + ", ".join(f"{k} {limits[k]:.4g} s" for k in exceeded)
@@ -242,14 +242,16 @@ def _report(Tv, t, points, mpi, p, height, cv, c2, p0, prof):
     return r
 
 
-def _print_limits(comm, limits, dt, smallest, speeds, f1, p):
+def _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch):
     notes = {"cfl": f"L/c, c = {speeds['c']:.2f} m/s",
              "undrained": f"L/c1, c1 = {speeds['c1']:.1f} m/s",
              "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4f} m2/s",
              "oscillator": f"L/c3, c3 = 2 pi f1 H = {2 * np.pi * f1 * p.size[1]:.2f} m/s "
                            f"(f1 = {f1:.2f} Hz)",
              "drag": f"2/lambda, lambda = {timestep.drag_rate(p):.0f} 1/s",
-             "discrete": "exact limit of the discrete two-phase step, drag included"}
+             "discrete": "stability limit of the linearised MPM step itself"
+                         + ("" if tuple(patch) == tuple(p.cells)
+                            else f" (found on a {patch[0]} x {patch[1]} cell patch)")}
     lines = ["Critical time steps (s):"]
     lines += [f"  {k:<11s}{v:11.3e}   {notes[k]}" for k, v in limits.items()]
     how = ("given by -mpm_dt" if not math.isnan(p.dt)

@@ -1,0 +1,205 @@
+"""Shared helpers of the test suite.
+
+* :func:`run_cli` runs ``python -m solver`` as a subprocess (optionally under ``mpirun -n N``)
+  in the repository root with its output in a temporary folder, and returns the exit code,
+  stdout, stderr and the parsed ``summary.json`` (None when there is none).
+* ``paper_run`` (session fixture) runs each paper scene once per rank count and caches it.
+* ``ref_shapes`` (fixture): Q4/Q8/Q9 shape functions written independently of
+  ``solver.shapes`` (generic 1D Lagrange products and the serendipity formulas), used as the
+  reference of the shape-function and dense-assembly tests.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from typing import NamedTuple, Optional
+
+import numpy as np
+import pytest
+
+# Open MPI refuses to run as root without these; subprocesses inherit them.
+os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+os.environ.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+# No display in batch runs.
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+REPO = Path(__file__).resolve().parents[1]
+PYTHON = sys.executable
+MPIRUN = shutil.which("mpirun")
+CASES = REPO / "cases"
+ELEMENTS = ("q4", "q8", "q9")
+
+
+class CliResult(NamedTuple):
+    returncode: int
+    stdout: str
+    stderr: str
+    summary: Optional[dict]
+
+
+def _option_value(args, flag):
+    value = None
+    for a, b in zip(args, list(args[1:]) + [None]):
+        if a == flag:
+            value = b
+    return value
+
+
+def mpi_command(ranks: int, argv):
+    """``argv`` under ``mpirun -n ranks`` (plain when ranks is 1)."""
+    if ranks == 1:
+        return list(argv)
+    if MPIRUN is None:
+        pytest.skip("mpirun not found")
+    return [MPIRUN, "-n", str(ranks), "--oversubscribe", *argv]
+
+
+def run_command(cmd, timeout=180, cwd=REPO):
+    """Run ``cmd`` in its own session; on timeout kill its whole process group (mpirun's
+    ranks included) and report return code 124. Returns (returncode, stdout, stderr)."""
+    proc = subprocess.Popen([str(c) for c in cmd], cwd=str(cwd), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+        return proc.returncode, out, err
+    except subprocess.TimeoutExpired:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        out, err = proc.communicate()
+        return 124, out, err + f"\n[test harness: killed after {timeout} s timeout]\n"
+
+
+def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=None):
+    """Run the solver's command line; returns :class:`CliResult` (a 4-tuple
+    (returncode, stdout, stderr, summary dict or None)).
+
+    ``args``: command-line arguments after ``-m solver``. ``-mpm_output out_dir`` is appended
+    unless ``args`` already names an output folder. ``options_file``: a scene name
+    (``'eigen-q4'``) or a path, prepended as ``-options_file``.
+    """
+    args = [str(a) for a in args]
+    if options_file is not None:
+        path = CASES / f"{options_file}.opts" if "/" not in str(options_file) else options_file
+        args = ["-options_file", str(path), *args]
+    if _option_value(args, "-mpm_output") is None:
+        args += ["-mpm_output", str(out_dir)]
+    cmd = mpi_command(ranks, [PYTHON, "-m", "solver", *args])
+    code, out, err = run_command(cmd, timeout=timeout)
+    summary_path = _option_value(args, "-mpm_summary") or os.path.join(
+        _option_value(args, "-mpm_output"), "summary.json")
+    summary_path = Path(summary_path)
+    if not summary_path.is_absolute():
+        summary_path = REPO / summary_path
+    summary = None
+    if summary_path.is_file():
+        with open(summary_path) as fh:
+            summary = json.load(fh)
+    return CliResult(code, out, err, summary)
+
+
+def check_ok(res: CliResult):
+    """Assert a successful run, showing its output when it is not."""
+    assert res.returncode == 0, (f"exit code {res.returncode}\nstdout:\n{res.stdout}\n"
+                                 f"stderr:\n{res.stderr[-4000:]}")
+    assert res.summary is not None, "no summary.json written"
+    return res.summary
+
+
+@pytest.fixture
+def cli(tmp_path):
+    """run_cli bound to this test's temporary folder (out_dir = tmp_path / 'out')."""
+    def _run(args, ranks=1, timeout=180, options_file=None, out_dir=None):
+        return run_cli(args, out_dir or tmp_path / "out", ranks=ranks, timeout=timeout,
+                       options_file=options_file)
+    return _run
+
+
+@pytest.fixture(scope="session")
+def paper_run(tmp_path_factory):
+    """``paper_run(element, ranks=1)``: the paper scene cases/eigen-<element>.opts run once
+    per session and rank count (with figures), as a CliResult; out folder in ``.out_dir``."""
+    cache = {}
+
+    def _get(element, ranks=1):
+        key = (element, ranks)
+        if key not in cache:
+            out = tmp_path_factory.mktemp(f"paper-{element}-n{ranks}") / "out"
+            res = run_cli([], out, ranks=ranks, options_file=f"eigen-{element}")
+            cache[key] = (res, out)
+        return cache[key]
+
+    return _get
+
+
+# -- independent shape functions ---------------------------------------------------------
+def _lagrange_1d(nodes, s):
+    """Values and derivatives of the 1D Lagrange polynomials through ``nodes`` at s (scalar),
+    from the product formula l_a(s) = prod_{b != a} (s - s_b) / (s_a - s_b)."""
+    nodes = list(nodes)
+    vals, ders = [], []
+    for a, sa in enumerate(nodes):
+        others = [sb for b, sb in enumerate(nodes) if b != a]
+        den = np.prod([sa - sb for sb in others])
+        vals.append(np.prod([s - sb for sb in others]) / den)
+        d = 0.0
+        for k in range(len(others)):
+            d += np.prod([s - sb for m, sb in enumerate(others) if m != k])
+        ders.append(d / den)
+    return np.array(vals), np.array(ders)
+
+
+# Natural coordinates of the nodes of each element, in this reference's own order.
+REF_NODES = {
+    "q4": np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], dtype=float),
+    "q8": np.array([(-1, -1), (1, -1), (1, 1), (-1, 1),
+                    (0, -1), (1, 0), (0, 1), (-1, 0)], dtype=float),
+    "q9": np.array([(-1, -1), (1, -1), (1, 1), (-1, 1),
+                    (0, -1), (1, 0), (0, 1), (-1, 0), (0, 0)], dtype=float),
+}
+
+
+def ref_shape(element, xi, eta):
+    """N (nen,), dN/d(xi, eta) (nen, 2) at one point, nodes as in REF_NODES[element]."""
+    nodes = REF_NODES[element]
+    N = np.zeros(len(nodes))
+    dN = np.zeros((len(nodes), 2))
+    if element == "q4":
+        for a, (xa, ya) in enumerate(nodes):
+            N[a] = 0.25 * (1 + xa * xi) * (1 + ya * eta)
+            dN[a] = 0.25 * xa * (1 + ya * eta), 0.25 * ya * (1 + xa * xi)
+    elif element == "q8":
+        for a, (xa, ya) in enumerate(nodes):
+            if xa != 0 and ya != 0:          # corner
+                N[a] = 0.25 * (1 + xa * xi) * (1 + ya * eta) * (xa * xi + ya * eta - 1)
+                dN[a, 0] = 0.25 * xa * (1 + ya * eta) * (2 * xa * xi + ya * eta)
+                dN[a, 1] = 0.25 * ya * (1 + xa * xi) * (xa * xi + 2 * ya * eta)
+            elif xa == 0:                    # mid-side on eta = ya
+                N[a] = 0.5 * (1 - xi * xi) * (1 + ya * eta)
+                dN[a] = -xi * (1 + ya * eta), 0.5 * ya * (1 - xi * xi)
+            else:                            # mid-side on xi = xa
+                N[a] = 0.5 * (1 + xa * xi) * (1 - eta * eta)
+                dN[a] = 0.5 * xa * (1 - eta * eta), -eta * (1 + xa * xi)
+    elif element == "q9":
+        vx, dx = _lagrange_1d((-1.0, 0.0, 1.0), xi)
+        vy, dy = _lagrange_1d((-1.0, 0.0, 1.0), eta)
+        for a, (xa, ya) in enumerate(nodes):
+            i, j = int(xa) + 1, int(ya) + 1
+            N[a] = vx[i] * vy[j]
+            dN[a] = dx[i] * vy[j], vx[i] * dy[j]
+    else:
+        raise ValueError(element)
+    return N, dN
+
+
+@pytest.fixture(scope="session")
+def ref_shapes():
+    """(ref_shape, REF_NODES): the independent shape functions."""
+    return ref_shape, REF_NODES
