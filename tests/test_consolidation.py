@@ -1,0 +1,215 @@
+"""Two-phase consolidation against the paper's Tables 1, 4, 5 and Terzaghi's solution.
+
+References are independent of the solver: the paper's printed values, Terzaghi's series
+(written again here), and the blow-up or not of actual runs around the computed limits.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+import pytest
+from conftest import check_ok
+
+# Paper Table 5 (Q4 meshes) and Table 4 (M1, element order): percent errors at T_v = 0.5, 1.
+PAPER_ERRORS = {"m1-q4": (6.17, 8.68), "m2-q4": (4.59, 7.33), "m3-q4": (3.70, 6.48),
+                "m1-q8": (1.85, 4.64), "m1-q9": (1.35, 4.90)}
+# Table 1 dt_crit,1 of the paper (s) and the monitor heights (the highest points below y = 0.5 m).
+PAPER_DT1 = {"m1-q4": 2.31e-4, "m2-q4": 1.16e-4, "m3-q4": 5.78e-5}
+MONITOR = {"m1-q4": 0.475, "m2-q4": 0.4875, "m3-q4": 0.49375, "m1-q9": 0.48333}
+
+
+def terzaghi(depth, Tv, H=1.0, p0=1.0, terms=2000):
+    """Terzaghi's series, independently of solver.analytic."""
+    m = np.arange(terms)
+    M = np.pi * (2 * m + 1) / 2
+    return p0 * float(np.sum(2 / M * np.sin(M * depth / H) * np.exp(-M * M * Tv)))
+
+
+@pytest.fixture(scope="module")
+def mesh_runs(tmp_path_factory):
+    """The three Q4 meshes of Table 5, whole runs to T_v = 1 under mpirun -n 2."""
+    from conftest import run_cli
+
+    runs = {}
+    for case in ("m1-q4", "m2-q4", "m3-q4"):
+        out = tmp_path_factory.mktemp(case) / "out"
+        res = run_cli(["-mpm_progress", "0"], out, ranks=2, timeout=900,
+                      options_file=f"consolidation-{case}")
+        runs[case] = (check_ok(res), out, res)
+    return runs
+
+
+def test_table5_errors_no_larger_than_paper(mesh_runs):
+    for case, (s, _, _) in mesh_runs.items():
+        mon = s["monitor"]
+        assert mon["Tv"] == [0.02, 0.5, 1.0]
+        assert mon["height"] == pytest.approx(MONITOR[case], abs=1e-4)
+        err = dict(zip(mon["Tv"], mon["error_pct"]))
+        assert abs(err[0.02]) <= 3.0, (case, err)
+        assert abs(err[0.5]) <= PAPER_ERRORS[case][0], (case, err)
+        assert abs(err[1.0]) <= PAPER_ERRORS[case][1], (case, err)
+        # The classic reference is Terzaghi at the monitor depth, recomputed here.
+        for Tv, ref in zip(mon["Tv"], mon["terzaghi"]):
+            assert ref == pytest.approx(terzaghi(1.0 - mon["height"], Tv), rel=1e-9)
+        assert s["stable"] is True and s["ranks"] == 2
+
+
+def test_consistent_error_falls_with_refinement(mesh_runs):
+    cons = [mesh_runs[c][0]["monitor"]["error_consistent_pct"] for c in ("m1-q4", "m2-q4",
+                                                                         "m3-q4")]
+    l2 = [mesh_runs[c][0]["profile_l2"]["consistent"] for c in ("m1-q4", "m2-q4", "m3-q4")]
+    for k in (1, 2):                      # T_v = 0.5 and 1
+        a, b, c = (abs(e[k]) for e in cons)
+        assert a > b > c, cons
+        assert l2[0][k] > l2[1][k] > l2[2][k], l2
+
+
+def test_critical_time_steps_match_table1(mesh_runs):
+    for case, (s, _, _) in mesh_runs.items():
+        dtc = s["dt_critical"]
+        assert set(dtc) == {"cfl", "undrained", "diffusion", "oscillator", "drag", "discrete"}
+        assert float(f"{dtc['undrained']:.3g}") == PAPER_DT1[case]
+        assert dtc["drag"] == pytest.approx(1.466e-4, rel=1e-3)
+        assert s["dt"] <= min(dtc.values())
+    m1 = mesh_runs["m1-q4"][0]["dt_critical"]
+    assert m1["cfl"] == pytest.approx(1.48e-3, rel=3e-3)
+    assert m1["diffusion"] == pytest.approx(0.0201, rel=3e-3)
+    # c3 = 2 pi f1 H with f1 = 16.92 Hz (Q4 model): L / c3.
+    assert m1["oscillator"] == pytest.approx(0.1 / (2 * np.pi * 16.92), rel=1e-3)
+
+
+def test_outputs_open(mesh_runs):
+    import meshio
+
+    s, out, res = mesh_runs["m1-q4"]
+    for key in ("isochrones_png", "pressure_field_png", "monitor_png"):
+        with open(s["files"][key], "rb") as fh:
+            assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
+    pvd = open(s["files"]["fields_pvd"]).read()
+    first = pvd.split('file="')[1].split('"')[0]
+    mesh = meshio.read(os.path.join(os.path.dirname(s["files"]["fields_pvd"]), first))
+    assert len(mesh.points) == s["n_points"] == 40
+    for name in ("pore_pressure", "effective_stress", "velocity_solid", "velocity_liquid"):
+        assert name in mesh.point_data
+    assert not [f for f in os.listdir(out) if f.startswith(".partial")]
+    assert "Critical time steps" in res.stdout and "Tables 4 and 5" in res.stdout
+
+
+def test_q9_no_worse_than_paper(cli):
+    s = check_ok(cli(["-mpm_progress", "0", "-mpm_figures", "0"], ranks=2, timeout=600,
+                     options_file="consolidation-m1-q9"))
+    err = dict(zip(s["monitor"]["Tv"], s["monitor"]["error_pct"]))
+    assert abs(err[0.02]) <= 3.0
+    assert abs(err[0.5]) <= PAPER_ERRORS["m1-q9"][0]
+    assert abs(err[1.0]) <= PAPER_ERRORS["m1-q9"][1]
+
+
+@pytest.mark.xfail(strict=True, reason="Q8 (HRZ lumping) shows a pressure oscillation "
+                   "across each cell; its T_v = 0.5 error exceeds the paper's (open)")
+def test_q8_no_worse_than_paper(cli):
+    s = check_ok(cli(["-mpm_progress", "0", "-mpm_figures", "0", "-mpm_Tv_end", "0.5",
+                      "-mpm_Tv_report", "0.5"], ranks=2, timeout=600,
+                     options_file="consolidation-m1-q8"))
+    assert abs(s["monitor"]["error_pct"][0]) <= PAPER_ERRORS["m1-q8"][0]
+
+
+@pytest.mark.parametrize("case", ["m2-q4", "m1-q9"])
+def test_one_and_two_ranks_agree(cli, tmp_path, case):
+    args = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05", "-mpm_progress", "0",
+            "-mpm_figures", "0"]
+    a = check_ok(cli(args, ranks=1, options_file=f"consolidation-{case}",
+                     out_dir=tmp_path / "n1"))
+    b = check_ok(cli(args, ranks=2, options_file=f"consolidation-{case}",
+                     out_dir=tmp_path / "n2"))
+    assert a["dt"] == b["dt"] and a["steps"] == b["steps"]
+    for key in ("p_over_q",):
+        np.testing.assert_allclose(b["monitor"][key], a["monitor"][key], rtol=1e-10)
+    for key in ("terzaghi", "consistent"):
+        np.testing.assert_allclose(b["profile_l2"][key], a["profile_l2"][key], rtol=1e-10)
+
+
+def _limits(cli, tmp_path, case, extra):
+    s = check_ok(cli(["-mpm_Tv_end", "0.001", "-mpm_Tv_report", "0.001", "-mpm_progress", "0",
+                      "-mpm_figures", "0", *extra], options_file=f"consolidation-{case}",
+                     out_dir=tmp_path / "limits"))
+    return s["dt_critical"]
+
+
+def _stable(cli, tmp_path, case, dt, extra, name):
+    res = cli(["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02", "-mpm_progress", "0",
+               "-mpm_figures", "0", "-mpm_damping", "0", "-mpm_dt", repr(dt), *extra],
+              options_file=f"consolidation-{case}", out_dir=tmp_path / name)
+    assert res.returncode in (0, 3), res.stderr
+    if res.returncode == 3:
+        assert res.summary["stable"] is False
+        assert "step" in res.stderr and res.stderr.count("\n") == 1
+    return res.returncode == 0
+
+
+@pytest.mark.parametrize("case", ["m1-q4", "m2-q4", "m1-q9"])
+def test_discrete_limit_is_sharp(cli, tmp_path, case):
+    lim = _limits(cli, tmp_path, case, [])["discrete"]
+    assert _stable(cli, tmp_path, case, 0.97 * lim, [], "below")
+    assert not _stable(cli, tmp_path, case, 1.03 * lim, [], "above")
+
+
+def test_drag_limit_is_sharp(cli, tmp_path):
+    # A ten times less permeable soil: the drag limit 2 / lambda governs.
+    extra = ["-mpm_k", "2.5e-5"]
+    dtc = _limits(cli, tmp_path, "m1-q4", extra)
+    lam = 0.3 * 9.81 / 2.5e-5 * (1 + 0.3 * 1000 / (0.7 * 2700))
+    assert dtc["drag"] == pytest.approx(2 / lam, rel=1e-12)
+    assert dtc["drag"] < min(dtc["undrained"], dtc["cfl"])
+    assert _stable(cli, tmp_path, "m1-q4", 0.97 * dtc["drag"], extra, "below")
+    assert not _stable(cli, tmp_path, "m1-q4", 1.03 * dtc["drag"], extra, "above")
+
+
+def test_second_parameter_set(cli):
+    """A 0.5 m column of another soil, nu > 0, near-undrained water, a larger load."""
+    E, nu, n, rho_s, rho_l, K_l, k, q, H = 20e6, 0.25, 0.4, 2650.0, 1000.0, 500e6, 1e-4, 50e3, 0.5
+    s = check_ok(cli(["-mpm_size", f"0.025,{H}", "-mpm_cells", "1,20", "-mpm_E", E, "-mpm_nu",
+                      nu, "-mpm_porosity", n, "-mpm_rho_s", rho_s, "-mpm_K_l", K_l, "-mpm_k", k,
+                      "-mpm_load", q, "-mpm_Tv_end", "0.3", "-mpm_Tv_report", "0.1,0.3",
+                      "-mpm_progress", "0", "-mpm_figures", "0"],
+                     options_file="consolidation-m1-q4", timeout=600))
+    E_c = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
+    gw = rho_l * 9.81
+    cv = k * E_c / gw
+    c2 = k / (gw * (1 / E_c + n / K_l))
+    p0 = (K_l / n) / (K_l / n + E_c)
+    assert s["c_v"] == pytest.approx(cv, rel=1e-12)
+    depth = H - s["monitor"]["height"]
+    for Tv, num in zip(s["monitor"]["Tv"], s["monitor"]["p_over_q"]):
+        ref = terzaghi(depth, Tv * c2 / cv, H, p0)
+        assert abs(num - ref) / ref < 0.02, (Tv, num, ref)
+    assert max(s["profile_l2"]["consistent"]) < 0.02
+
+
+@pytest.mark.parametrize("option,value", [
+    ("-mpm_porosity", "0"), ("-mpm_porosity", "1"), ("-mpm_k", "0"), ("-mpm_k", "-1e-4"),
+    ("-mpm_K_l", "0"), ("-mpm_dt", "0"), ("-mpm_dt", "-1e-5"), ("-mpm_monitor_height", "1.5"),
+    ("-mpm_monitor_height", "-0.1"), ("-mpm_Tv_report", "0.5,,1"), ("-mpm_damping", "1"),
+])
+def test_bad_input(cli, tmp_path, option, value):
+    out = tmp_path / "never"
+    res = cli([option, value], options_file="consolidation-m1-q4", out_dir=out)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("solver: error: ")
+    assert option in lines[0]
+    assert "Traceback" not in res.stderr
+    assert not out.exists()
+
+
+def test_blow_up_exits_3_with_summary(cli, tmp_path):
+    res = cli(["-mpm_dt", "5e-4", "-mpm_Tv_end", "0.05", "-mpm_progress", "0",
+               "-mpm_Tv_report", "0.05"], options_file="consolidation-m1-q4")
+    assert res.returncode == 3
+    assert "WARNING" in res.stdout
+    line = res.stderr.strip()
+    assert line.startswith("solver: error: blow-up") and "step" in line and "t =" in line
+    assert res.summary["stable"] is False and res.summary["steps"] > 0
+    assert math.isclose(res.summary["dt"], 5e-4)
