@@ -60,11 +60,24 @@ def mpi_command(ranks: int, argv):
     return [MPIRUN, "-n", str(ranks), "--oversubscribe", *argv]
 
 
+def clean_env():
+    """The environment for subprocesses: Python's view of it, without the variables an
+    in-process MPI initialisation (petsc4py in this pytest process) adds at C level (PMIX_*,
+    OMPI_MCA_*), which would make a child ``mpirun`` fail."""
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith(("PMIX_", "OMPI_MCA_", "OMPI_APP_", "OMPI_COMM_", "OMPI_FILE_"))}
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    env.setdefault("MPLBACKEND", "Agg")
+    return env
+
+
 def run_command(cmd, timeout=180, cwd=REPO):
     """Run ``cmd`` in its own session; on timeout kill its whole process group (mpirun's
     ranks included) and report return code 124. Returns (returncode, stdout, stderr)."""
     proc = subprocess.Popen([str(c) for c in cmd], cwd=str(cwd), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True,
+                            start_new_session=True, env=clean_env())
     try:
         out, err = proc.communicate(timeout=timeout)
         return proc.returncode, out, err

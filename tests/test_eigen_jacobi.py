@@ -1,0 +1,344 @@
+"""The generalized Jacobi solver (solver.jacobi) on its own: random SPD pencils against numpy,
+eq. (3) rotations, the round-robin ordering, failures, and the same checks under MPI.
+
+Run as a script (``mpirun -n N python tests/test_eigen_jacobi.py CHECK``) it performs one of
+the MPI checks below and prints one line per rank; the tests start it through mpirun.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+RTOL = 1e-10
+
+
+# -- helpers shared by the tests and the MPI script --------------------------------------
+def random_pencil(n, seed):
+    """Random symmetric positive definite K and M (n x n), moderately conditioned."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    K = A @ A.T + n * np.eye(n)
+    B = rng.standard_normal((n, n))
+    M = B @ B.T / n + 0.5 * np.eye(n)
+    return K, M
+
+
+def reference_eigenvalues(K, M):
+    """Eigenvalues of K x = lambda M x by numpy: Cholesky of M, then eigvalsh."""
+    L = np.linalg.cholesky(M)
+    Li = np.linalg.inv(L)
+    return np.linalg.eigvalsh(Li @ K @ Li.T)
+
+
+def petsc_mat(A, comm=None):
+    """A parallel AIJ Mat holding the dense array A (each rank sets its own rows)."""
+    from petsc4py import PETSc
+
+    comm = comm or PETSc.COMM_WORLD
+    n = A.shape[0]
+    mat = PETSc.Mat().createAIJ([n, n], comm=comm)
+    mat.setPreallocationNNZ((n, n))
+    mat.setUp()
+    lo, hi = mat.getOwnershipRange()
+    cols = np.arange(n, dtype=PETSc.IntType)
+    for i in range(lo, hi):
+        mat.setValues(i, cols, A[i])
+    mat.assemble()
+    return mat
+
+
+def gather_vectors(vectors):
+    """The full arrays of a list of parallel Vecs (on every rank)."""
+    from petsc4py import PETSc
+
+    out = []
+    for v in vectors:
+        scatter, seq = PETSc.Scatter.toAll(v)
+        scatter.scatter(v, seq, PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+        out.append(seq.getArray().copy())
+        scatter.destroy()
+        seq.destroy()
+    return np.array(out)
+
+
+def check_pencil(n, seed, nmodes=None):
+    """Solve a random pencil; return (max rel eigenvalue error, orthonormality error,
+    max relative residual, sweeps)."""
+    from solver import jacobi
+
+    Kd, Md = random_pencil(n, seed)
+    K, M = petsc_mat(Kd), petsc_mat(Md)
+    nmodes = n if nmodes is None else nmodes
+    res = jacobi.solve(K, M, nmodes, tol=1e-15, max_sweeps=50)
+    ref = reference_eigenvalues(Kd, Md)
+    eig_err = float(np.max(np.abs(res.eigenvalues - ref) / np.abs(ref)))
+    Phi = gather_vectors(res.vectors).T          # (n, nmodes)
+    orth = float(np.max(np.abs(Phi.T @ Md @ Phi - np.eye(nmodes))))
+    lam = res.eigenvalues[:nmodes]
+    R = Kd @ Phi - (Md @ Phi) * lam
+    resid = float(np.max(np.linalg.norm(R, axis=0) / (np.linalg.norm(Kd, 2) *
+                                                      np.linalg.norm(Phi, axis=0))))
+    assert len(res.eigenvalues) == n and len(res.vectors) == nmodes
+    K.destroy()
+    M.destroy()
+    return eig_err, orth, resid, res.sweeps
+
+
+# -- in-process tests ---------------------------------------------------------------------
+import pytest  # noqa: E402
+
+
+@pytest.mark.parametrize("n, seed", [(37, 1), (60, 2), (1, 3), (2, 4), (5, 5)])
+def test_random_spd_pencil(n, seed):
+    eig_err, orth, resid, sweeps = check_pencil(n, seed)
+    assert eig_err <= RTOL
+    assert orth <= RTOL          # Phi^T M Phi = I
+    assert resid <= RTOL         # K phi = lambda M phi
+    assert 1 <= sweeps <= 50
+
+
+def test_lowest_modes_only_and_ascending():
+    from solver import jacobi
+
+    Kd, Md = random_pencil(24, 7)
+    res = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 4)
+    assert np.all(np.diff(res.eigenvalues) >= 0)
+    ref = reference_eigenvalues(Kd, Md)
+    np.testing.assert_allclose(res.eigenvalues, ref, rtol=RTOL)
+    Phi = gather_vectors(res.vectors).T
+    assert Phi.shape == (24, 4)
+    np.testing.assert_allclose(Kd @ Phi, (Md @ Phi) * ref[:4], rtol=0,
+                               atol=RTOL * np.abs(Kd @ Phi).max())
+
+
+def test_diagonal_pencil_needs_no_rotation():
+    from solver import jacobi
+
+    k = np.array([5.0, 1.0, 3.0, 2.0, 4.0])
+    m = np.array([1.0, 2.0, 0.5, 1.0, 4.0])
+    res = jacobi.solve(petsc_mat(np.diag(k)), petsc_mat(np.diag(m)), 5)
+    np.testing.assert_allclose(res.eigenvalues, np.sort(k / m), rtol=1e-15)
+    Phi = gather_vectors(res.vectors).T
+    np.testing.assert_allclose(Phi.T @ np.diag(m) @ Phi, np.eye(5), atol=1e-15)
+
+
+def _rotate(K, M, i, j, alpha, gamma):
+    n = K.shape[0]
+    P = np.eye(n)
+    P[i, j] = alpha
+    P[j, i] = gamma
+    return P.T @ K @ P, P.T @ M @ P
+
+
+def test_rotation_parameters_zero_the_pair():
+    """Eq. (3): P^T K P and P^T M P have zero (i, j) entries, for many random 2 x 2 pairs."""
+    from solver import jacobi
+
+    rng = np.random.default_rng(11)
+    for trial in range(300):
+        K, M = random_pencil(2, 1000 + trial)
+        if trial % 3 == 0:            # indefinite-ish K (a symmetric K is all eq. 3 needs)
+            K = K - 2.5 * np.eye(2) * rng.uniform()
+        a, g = jacobi.rotation_parameters(K[0, 0], K[1, 1], K[0, 1], M[0, 0], M[1, 1], M[0, 1])
+        Kr, Mr = _rotate(K, M, 0, 1, float(a), float(g))
+        assert abs(Kr[0, 1]) <= 1e-12 * np.abs(K).max()
+        assert abs(Mr[0, 1]) <= 1e-12 * np.abs(M).max()
+        assert abs(Kr[1, 0]) <= 1e-12 * np.abs(K).max()
+
+
+def test_rotation_parameters_vectorised_and_special_cases():
+    from solver import jacobi
+
+    rng = np.random.default_rng(12)
+    pairs = [random_pencil(2, 2000 + t) for t in range(50)]
+    # Proportional blocks (K = c M): x = 0 in Bathe's formula.
+    Mp = random_pencil(2, 99)[1]
+    pairs.append((3.7 * Mp, Mp))
+    # Equal ratios on the diagonal (kb = 0) with coupling.
+    pairs.append((np.array([[2.0, 0.3], [0.3, 2.0]]), np.array([[1.0, 0.4], [0.4, 1.0]])))
+    pairs.append((np.array([[2.0, 0.0], [0.0, 4.0]]), np.array([[1.0, 0.0], [0.0, 2.0]])))
+    Ks = np.array([p[0] for p in pairs])
+    Ms = np.array([p[1] for p in pairs])
+    a, g = jacobi.rotation_parameters(Ks[:, 0, 0], Ks[:, 1, 1], Ks[:, 0, 1],
+                                      Ms[:, 0, 0], Ms[:, 1, 1], Ms[:, 0, 1])
+    assert a.shape == g.shape == (len(pairs),)
+    assert np.all(np.isfinite(a)) and np.all(np.isfinite(g))
+    for k, (K, M) in enumerate(pairs):
+        Kr, Mr = _rotate(K, M, 0, 1, a[k], g[k])
+        assert abs(Kr[0, 1]) <= 1e-12 * np.abs(K).max(), k
+        assert abs(Mr[0, 1]) <= 1e-12 * np.abs(M).max(), k
+        # The rotated pencil keeps the eigenvalues.
+        np.testing.assert_allclose(reference_eigenvalues(Kr, Mr), reference_eigenvalues(K, M),
+                                   rtol=1e-12)
+    del rng
+
+
+def test_rotation_in_a_larger_matrix():
+    """Rotating (i, j) inside an n x n pencil zeroes exactly that pair."""
+    from solver import jacobi
+
+    K, M = random_pencil(7, 21)
+    for i, j in [(0, 6), (2, 3), (5, 1)]:
+        a, g = jacobi.rotation_parameters(K[i, i], K[j, j], K[i, j], M[i, i], M[j, j], M[i, j])
+        Kr, Mr = _rotate(K, M, i, j, float(a), float(g))
+        assert abs(Kr[i, j]) <= 1e-12 * np.abs(K).max()
+        assert abs(Mr[i, j]) <= 1e-12 * np.abs(M).max()
+
+
+@pytest.mark.parametrize("n", [2, 4, 6, 8, 10, 38, 60])
+def test_tournament_visits_every_pair_once(n):
+    from solver import jacobi
+
+    src = jacobi.tournament(n)
+    assert sorted(src.tolist()) == list(range(n))       # a permutation of the slots
+    index = np.arange(n)
+    seen = {}
+    for rnd in range(n - 1):
+        pairs = [tuple(sorted((int(index[2 * k]), int(index[2 * k + 1])))) for k in range(n // 2)]
+        assert len({x for p in pairs for x in p}) == n   # disjoint pairs within a round
+        for p in pairs:
+            seen[p] = seen.get(p, 0) + 1
+        index = index[src]
+    assert len(seen) == n * (n - 1) // 2
+    assert set(seen.values()) == {1}
+    # The next n - 1 rounds (the next sweep) cover every pair once again.
+    seen2 = set()
+    for rnd in range(n - 1):
+        seen2 |= {tuple(sorted((int(index[2 * k]), int(index[2 * k + 1]))))
+                  for k in range(n // 2)}
+        index = index[src]
+    assert len(seen2) == n * (n - 1) // 2
+
+
+def test_too_few_sweeps_raise_numerical_error():
+    from solver import jacobi
+    from solver.errors import NumericalError
+
+    Kd, Md = random_pencil(20, 31)
+    with pytest.raises(NumericalError, match="did not converge"):
+        jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 3, tol=1e-15, max_sweeps=1)
+    assert NumericalError.exit_code == 3
+
+
+def test_zero_mass_diagonal_raises_numerical_error():
+    from solver import jacobi
+    from solver.errors import NumericalError
+
+    Kd, Md = random_pencil(9, 32)
+    Md[4, :] = Md[:, 4] = 0.0      # a DOF without mass: singular M
+    with pytest.raises(NumericalError):
+        jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 3)
+
+
+def test_indefinite_mass_raises_numerical_error():
+    from solver import jacobi
+    from solver.errors import NumericalError
+
+    Kd = np.eye(4)
+    Md = np.eye(4)
+    Md[1:3, 1:3] = [[1.0, 2.0], [2.0, 1.0]]    # positive diagonal, eigenvalue -1
+    with pytest.raises(NumericalError):
+        jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 2)
+
+
+def test_singular_mass_with_positive_diagonal_raises_numerical_error():
+    from solver import jacobi
+    from solver.errors import NumericalError
+
+    Kd, _ = random_pencil(6, 33)
+    v = np.ones((6, 1))
+    Md = v @ v.T + np.diag([0, 0, 0, 0, 1.0, 1.0])   # rank 3, all diagonal entries > 0
+    with pytest.raises(NumericalError):
+        jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 2, max_sweeps=30)
+
+
+# -- under MPI ------------------------------------------------------------------------------
+def _run_script(ranks, check, timeout=60):
+    from conftest import PYTHON, mpi_command, run_command
+
+    cmd = mpi_command(ranks, [PYTHON, os.path.abspath(__file__), check])
+    return run_command(cmd, timeout=timeout)
+
+
+def _rank_lines(out, ranks):
+    lines = [ln.split() for ln in out.splitlines() if ln.startswith("RANK ")]
+    return {int(ln[1]): ln[2:] for ln in lines}
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_random_spd_pencil_under_mpi(ranks):
+    """n = 37 (odd), 60 and 11 on several ranks: same accuracy as on one."""
+    code, out, err = _run_script(ranks, "pencil")
+    assert code == 0, out + err[-3000:]
+    lines = _rank_lines(out, ranks)
+    assert sorted(lines) == list(range(ranks)), out + err[-3000:]
+    for rank, words in lines.items():
+        assert words[0] == "OK", (rank, words, out, err[-3000:])
+
+
+def test_indefinite_mass_under_mpi_raises_on_every_rank():
+    """Every rank must raise NumericalError (not only the rank holding the bad pivot)."""
+    code, out, err = _run_script(2, "indefinite", timeout=15)
+    lines = _rank_lines(out, 2)
+    assert code == 0 and sorted(lines) == [0, 1], (
+        f"exit {code}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
+    for rank, words in lines.items():
+        assert words[0] == "NumericalError", (rank, words)
+
+
+def test_tiny_pencil_on_more_ranks_than_pairs():
+    """n = 2 on 2 ranks: one pair, so rank 0 owns no slot; the solve must still work."""
+    n = 2
+    code, out, err = _run_script(2, f"tiny{n}", timeout=15)
+    lines = _rank_lines(out, 2)
+    assert code == 0 and sorted(lines) == [0, 1], (
+        f"exit {code}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
+    for rank, words in lines.items():
+        assert words[0] == "OK", (rank, words)
+
+
+def _mpi_main(check):
+    import petsc4py
+
+    petsc4py.init([])
+    from petsc4py import PETSc
+
+    from solver import jacobi
+    from solver.errors import NumericalError
+
+    rank = PETSc.COMM_WORLD.getRank()
+    status = "OK"
+    try:
+        if check == "pencil":
+            for n, seed in ((37, 1), (60, 2), (11, 3)):
+                eig_err, orth, resid, _ = check_pencil(n, seed)
+                if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
+                    status = f"FAIL n={n} eig={eig_err:.2e} orth={orth:.2e} res={resid:.2e}"
+        elif check == "indefinite":
+            Kd = np.eye(4)
+            Md = np.eye(4)
+            Md[0:2, 0:2] = [[1.0, 2.0], [2.0, 1.0]]
+            try:
+                jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 2)
+                status = "no-error"
+            except NumericalError:
+                status = "NumericalError"
+        elif check.startswith("tiny"):
+            n = int(check[4:])
+            eig_err, orth, resid, _ = check_pencil(n, 40 + n)
+            if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
+                status = f"FAIL eig={eig_err:.2e}"
+        else:
+            status = f"unknown-check-{check}"
+    except Exception as exc:  # report, do not hang the other ranks silently
+        status = f"{type(exc).__name__}:{str(exc)[:80].replace(' ', '_')}"
+    print(f"RANK {rank} {status}", flush=True)
+
+
+if __name__ == "__main__":
+    _mpi_main(sys.argv[1])
