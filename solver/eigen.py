@@ -185,7 +185,8 @@ def _print_table(comm, freq, refs, cross):
         head += f"{'rel diff':>11s}{'MAC':>9s}"
     lines = ["Natural frequencies (Hz)", head]
     for k in range(len(cols[0][1])):
-        row = f"{k + 1:4d} " + "".join(f"{v[k]:11.2f}" for _, v in cols)
+        row = f"{k + 1:4d} " + "".join(f"{v[k]:11.2f}" if k < len(v) else " " * 11
+                                       for _, v in cols)
         if cross:
             row += (f"{cross['relative_eigenvalue_difference'][k]:11.1e}"
                     f"{cross['mac'][k]:9.5f}")

@@ -165,7 +165,8 @@ def solve(K, M, nmodes: int, tol: float = 1e-15, max_sweeps: int = 50) -> Jacobi
 
     lam_old = np.zeros(n2)
     kd, md = diagonals(index[mine])
-    lam_old[index[mine]] = kd / md
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam_old[index[mine]] = kd / md
     lam_old = _allreduce_sum(slots, lam_old)
     if np.any(_allreduce_sum(slots, _scatter(index[mine], md, n2))[:n] <= 0):
         raise NumericalError("Jacobi: the mass matrix has a zero or negative diagonal "
@@ -194,9 +195,14 @@ def solve(K, M, nmodes: int, tol: float = 1e-15, max_sweeps: int = 50) -> Jacobi
             # The rotation zeroes (i, j) exactly; store the zero, not the rounding residue.
             W[0::2, 0][r, bj] = W[0::2, 1][r, bj] = 0.0
             W[1::2, 0][r, ti] = W[1::2, 1][r, ti] = 0.0
-            W = slots.permute(W.reshape(nloc, -1)).reshape(nloc, 3, n2)
+            W = slots.permute(W.reshape(nloc, 3 * n2)).reshape(nloc, 3, n2)
             index = index[slots.src]
-        coupling, change, lam_old = _convergence(slots, W, index[mine], n, n2, lam_old)
+        coupling, change, lam_old, mdiag = _convergence(slots, W, index[mine], n, n2, lam_old)
+        # The diagonals are global here, so every rank takes the same decision.
+        if np.any(mdiag[:n] <= 0):
+            raise NumericalError(
+                f"Jacobi: the mass matrix is singular or indefinite (a transformed M_ii <= 0 "
+                f"in sweep {sweep}); check for empty cells or too few points per cell")
         if coupling <= tol and change <= tol:
             break
     else:
@@ -206,10 +212,7 @@ def solve(K, M, nmodes: int, tol: float = 1e-15, max_sweeps: int = 50) -> Jacobi
             "(raise -mpm_jacobi_max_sweeps or loosen the tolerance)")
 
     idx = index[mine]
-    kd, md = diagonals(idx)
-    if np.any(md[idx < n] <= 0):
-        raise NumericalError("Jacobi: the transformed mass matrix is not positive "
-                             "(M is singular or indefinite)")
+    md = mdiag[idx]
     lam = lam_old[:n]
     order = np.argsort(lam, kind="stable")
     wanted = order[:nmodes]
@@ -261,7 +264,8 @@ def _convergence(slots, W, idx, n, n2, lam_old):
         with np.errstate(divide="ignore", invalid="ignore"):
             c = np.where(off != 0, np.abs(off) / denom, 0.0)
         coupling = max(coupling, float(c.max()) if c.size else 0.0)
-    lam = diag[0] / diag[1]
-    change = float(np.max(np.abs(lam - lam_old) / np.abs(lam)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = diag[0] / diag[1]
+        change = float(np.max(np.abs(lam - lam_old) / np.abs(lam)))
     coupling = slots.mpi.allreduce(coupling, op=MPI.MAX)
-    return coupling, change, lam
+    return coupling, change, lam, diag[1]

@@ -204,11 +204,11 @@ def read(spec=None, db=None) -> SimpleNamespace:
 
     values = {}
     for opt in spec:
-        text = given.get(opt.name)
-        if text is None:
+        if opt.name not in given:
             values[opt.name] = opt.default
             continue
-        text = str(text)
+        # PETSc stores an option given without a value as None (or "").
+        text = "" if given[opt.name] is None else str(given[opt.name])
         if opt.kind == "bool":
             low = text.strip().lower()
             if low in ("", "1", "true", "yes", "on"):

@@ -1,8 +1,9 @@
 """The generalized Jacobi solver (solver.jacobi) on its own: random SPD pencils against numpy,
 eq. (3) rotations, the round-robin ordering, failures, and the same checks under MPI.
 
-Run as a script (``mpirun -n N python tests/test_eigen_jacobi.py CHECK``) it performs one of
-the MPI checks below and prints one line per rank; the tests start it through mpirun.
+Run as a script (``mpirun -n N python tests/test_eigen_jacobi.py CHECK FOLDER``) it performs
+one of the MPI checks below and writes FOLDER/rank-R.txt per rank; the tests start it through
+mpirun.
 """
 
 from __future__ import annotations
@@ -154,7 +155,6 @@ def test_rotation_parameters_zero_the_pair():
 def test_rotation_parameters_vectorised_and_special_cases():
     from solver import jacobi
 
-    rng = np.random.default_rng(12)
     pairs = [random_pencil(2, 2000 + t) for t in range(50)]
     # Proportional blocks (K = c M): x = 0 in Bathe's formula.
     Mp = random_pencil(2, 99)[1]
@@ -175,7 +175,6 @@ def test_rotation_parameters_vectorised_and_special_cases():
         # The rotated pencil keeps the eigenvalues.
         np.testing.assert_allclose(reference_eigenvalues(Kr, Mr), reference_eigenvalues(K, M),
                                    rtol=1e-12)
-    del rng
 
 
 def test_rotation_in_a_larger_matrix():
@@ -258,51 +257,51 @@ def test_singular_mass_with_positive_diagonal_raises_numerical_error():
 
 
 # -- under MPI ------------------------------------------------------------------------------
-def _run_script(ranks, check, timeout=60):
+def _run_script(ranks, check, tmp_path, timeout=60):
+    """Run this file as an MPI script; returns (exit code, stdout, stderr, {rank: words})
+    where each rank's words come from the file it wrote (a line per rank, no interleaving)."""
     from conftest import PYTHON, mpi_command, run_command
 
-    cmd = mpi_command(ranks, [PYTHON, os.path.abspath(__file__), check])
-    return run_command(cmd, timeout=timeout)
-
-
-def _rank_lines(out, ranks):
-    lines = [ln.split() for ln in out.splitlines() if ln.startswith("RANK ")]
-    return {int(ln[1]): ln[2:] for ln in lines}
+    cmd = mpi_command(ranks, [PYTHON, os.path.abspath(__file__), check, str(tmp_path)])
+    code, out, err = run_command(cmd, timeout=timeout)
+    lines = {}
+    for r in range(ranks):
+        f = tmp_path / f"rank-{r}.txt"
+        if f.is_file():
+            lines[r] = f.read_text().split()
+    return code, out, err, lines
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
-def test_random_spd_pencil_under_mpi(ranks):
+def test_random_spd_pencil_under_mpi(ranks, tmp_path):
     """n = 37 (odd), 60 and 11 on several ranks: same accuracy as on one."""
-    code, out, err = _run_script(ranks, "pencil")
+    code, out, err, lines = _run_script(ranks, "pencil", tmp_path)
     assert code == 0, out + err[-3000:]
-    lines = _rank_lines(out, ranks)
     assert sorted(lines) == list(range(ranks)), out + err[-3000:]
     for rank, words in lines.items():
         assert words[0] == "OK", (rank, words, out, err[-3000:])
 
 
-def test_indefinite_mass_under_mpi_raises_on_every_rank():
+def test_indefinite_mass_under_mpi_raises_on_every_rank(tmp_path):
     """Every rank must raise NumericalError (not only the rank holding the bad pivot)."""
-    code, out, err = _run_script(2, "indefinite", timeout=15)
-    lines = _rank_lines(out, 2)
+    code, out, err, lines = _run_script(2, "indefinite", tmp_path, timeout=10)
     assert code == 0 and sorted(lines) == [0, 1], (
-        f"exit {code}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
+        f"exit {code}, ranks: {lines}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
     for rank, words in lines.items():
         assert words[0] == "NumericalError", (rank, words)
 
 
-def test_tiny_pencil_on_more_ranks_than_pairs():
+def test_tiny_pencil_on_more_ranks_than_pairs(tmp_path):
     """n = 2 on 2 ranks: one pair, so rank 0 owns no slot; the solve must still work."""
     n = 2
-    code, out, err = _run_script(2, f"tiny{n}", timeout=15)
-    lines = _rank_lines(out, 2)
+    code, out, err, lines = _run_script(2, f"tiny{n}", tmp_path, timeout=10)
     assert code == 0 and sorted(lines) == [0, 1], (
-        f"exit {code}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
+        f"exit {code}, ranks: {lines}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
     for rank, words in lines.items():
         assert words[0] == "OK", (rank, words)
 
 
-def _mpi_main(check):
+def _mpi_main(check, folder):
     import petsc4py
 
     petsc4py.init([])
@@ -337,8 +336,9 @@ def _mpi_main(check):
             status = f"unknown-check-{check}"
     except Exception as exc:  # report, do not hang the other ranks silently
         status = f"{type(exc).__name__}:{str(exc)[:80].replace(' ', '_')}"
-    print(f"RANK {rank} {status}", flush=True)
+    with open(os.path.join(folder, f"rank-{rank}.txt"), "w") as fh:
+        fh.write(status + "\n")
 
 
 if __name__ == "__main__":
-    _mpi_main(sys.argv[1])
+    _mpi_main(sys.argv[1], sys.argv[2])

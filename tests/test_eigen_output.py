@@ -129,9 +129,8 @@ def test_single_solver(cli, solver):
     assert [round(f, 2) for f in s["frequencies_hz"][solver]] == pytest.approx(TABLE3_Q4)
 
 
-def test_relative_output_folder_is_under_cwd(cli, tmp_path):
-    """A relative -mpm_output is relative to the working directory (the repository root
-    here); use an absolute path inside tmp_path instead to check the absolute case."""
+def test_deep_output_folder_is_created(cli, tmp_path):
+    """-mpm_output names a folder that does not exist yet, several levels deep."""
     out = tmp_path / "abs" / "deep" / "folder"
     s = check_ok(cli(["-mpm_figures", "0"], options_file="eigen-q8", out_dir=out))
     assert (out / "summary.json").is_file() and (out / "modes.vtu").is_file()

@@ -83,6 +83,6 @@ def test_tiny_model_on_two_ranks(cli, tmp_path):
             "-mpm_nmodes", "1", "-mpm_figures", "0"]
     s1 = check_ok(cli(args, options_file="eigen-q4", out_dir=tmp_path / "n1"))
     assert s1["ndof"] == 2
-    res = cli(args, ranks=2, options_file="eigen-q4", out_dir=tmp_path / "n2", timeout=15)
+    res = cli(args, ranks=2, options_file="eigen-q4", out_dir=tmp_path / "n2", timeout=10)
     s2 = check_ok(res)
     assert_same_model(s1, s2, 2)

@@ -235,8 +235,6 @@ def test_every_consolidation_option_rejected_for_eigen():
 
 def test_cases_files_parse():
     """The shipped eigen scenes are valid option files for the reader."""
-    from solver.errors import InputError  # noqa: F401
-
     for element in ("q4", "q8", "q9"):
         text = (REPO / "cases" / f"eigen-{element}.opts").read_text()
         values = {}
