@@ -213,3 +213,20 @@ def test_blow_up_exits_3_with_summary(cli, tmp_path):
     assert line.startswith("solver: error: blow-up") and "step" in line and "t =" in line
     assert res.summary["stable"] is False and res.summary["steps"] > 0
     assert math.isclose(res.summary["dt"], 5e-4)
+
+
+def test_output_every_writes_a_whole_series(cli, tmp_path):
+    import meshio
+
+    out = tmp_path / "series"
+    s = check_ok(cli(["-mpm_Tv_end", "0.005", "-mpm_Tv_report", "0.005", "-mpm_output_every",
+                      "100", "-mpm_progress", "0", "-mpm_figures", "0"],
+                     options_file="consolidation-m1-q4", out_dir=out))
+    pvd = open(s["files"]["fields_pvd"]).read()
+    files = [part.split('"')[0] for part in pvd.split('file="')[1:]]
+    # every 100 steps, plus the report time (T_v = 0.005 is the last step)
+    assert len(files) == s["steps"] // 100 + (s["steps"] % 100 != 0)
+    times = [float(part.split('"')[0]) for part in pvd.split('timestep="')[1:]]
+    assert times == sorted(times) and times[-1] == pytest.approx(s["steps"] * s["dt"])
+    last = meshio.read(out / files[-1])
+    assert np.all(np.isfinite(last.point_data["pore_pressure"]))
