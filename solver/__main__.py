@@ -1,6 +1,7 @@
 """Command line: ``mpirun -n N python -m solver -options_file cases/<scene>.opts [options]``.
 
-Exit codes: 0 success, 2 bad input, 3 numerical failure. Failures print one line on stderr
+Exit codes: 0 success, 2 bad input, 3 numerical failure, 4 stopped by SIGTERM/SIGINT
+after writing a checkpoint. Failures print one line on stderr
 (rank 0); ``-mpm_debug`` adds the Python traceback.
 """
 
@@ -34,7 +35,7 @@ def main(argv=None) -> int:
     from petsc4py import PETSc
 
     from . import options
-    from .errors import InputError, NumericalError
+    from .errors import InputError, Interrupted, NumericalError
 
     comm = PETSc.COMM_WORLD
     if "-help" in argv or "-h" in argv:
@@ -53,7 +54,7 @@ def main(argv=None) -> int:
             code = consolidation.run(params, comm)
             if code:
                 return code
-    except (InputError, NumericalError) as exc:
+    except (InputError, NumericalError, Interrupted) as exc:
         if debug:
             raise
         return _fail(str(exc), exc.exit_code, comm.getRank())

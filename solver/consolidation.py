@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, assembly, eigen, jacobi, output, timestep
-from .errors import InputError, NumericalError
+from . import analytic, assembly, checkpoint, eigen, jacobi, output, timestep
+from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
 from .twophase import POINT_FIELDS, TwoPhase
@@ -74,6 +75,7 @@ def run(p, comm) -> int:
     lumping = assembly.default_lumping(p.element) if p.lumping == "auto" else p.lumping
     grid = Grid(comm, p.element, p.cells, p.size)
     points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
+    restart = checkpoint.read(p.restart, p) if p.restart else None
     with points.fields("x", "y0", "monitor") as (x, y0, mon):
         y0[:] = x[:, 1]
         if math.isnan(p.monitor_height):
@@ -86,6 +88,8 @@ def run(p, comm) -> int:
             target = mpi.allreduce(cand, op=MPI.MAX)
         mon[:] = np.abs(y0 - target) < 1e-9 * H
     monitor_height = float(target)
+    if restart is not None:
+        checkpoint.scatter(points, grid, restart[0], restart[1])
 
     # Critical time steps.
     stage = PETSc.Log.Stage("Critical time steps")
@@ -98,6 +102,8 @@ def run(p, comm) -> int:
     # Rounded down to 3 significant digits: the limits come from iterative eigensolvers whose
     # last digits vary with the number of ranks, and the run should not.
     dt = p.dt if not math.isnan(p.dt) else _round_down(p.dt_safety * limits[smallest], 3)
+    if restart is not None:
+        dt = restart[2]["dt"]
     exceeded = [k for k, v in limits.items() if dt > v]
     speeds = timestep.wave_speeds(p)
     _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch)
@@ -127,6 +133,18 @@ def run(p, comm) -> int:
     series = _Series(p.output, comm)
     history = []          # (t, Tv, p/q at the monitor)
     reports, profiles = [], []
+    first = 1
+    if restart is not None:
+        st = restart[2]
+        first = st["step"] + 1
+        history = [tuple(h) for h in st["history"]]
+        reports = st["reports"]
+        profiles = [(a, b, np.array(c)) for a, b, c in st["profiles"]]
+        series.entries = [tuple(e) for e in st["series"]]
+        PETSc.Sys.Print(f"Restart from {p.restart} at step {st['step']} "
+                        f"(t = {st['step'] * dt:.6g} s)", comm=comm)
+    ckpt_path = os.path.join(p.output, "checkpoint.npz")
+    stop = _Signals()
     summary = {"analysis": "consolidation", "ranks": comm.getSize(), "element": p.element,
                "cells": list(p.cells), "ppc": p.ppc, "n_points": points.n_global,
                "steps": 0, "dt": dt, "wall_seconds": 0.0, "stable": True,
@@ -138,13 +156,21 @@ def run(p, comm) -> int:
     stage = PETSc.Log.Stage("Explicit steps")
     stage.push()
     last_print = time.perf_counter()
-    k = 0
+    k = first - 1
+    last_ckpt = time.perf_counter()
+
+    def state(step):
+        return {"step": step, "dt": dt, "history": history, "reports": reports,
+                "profiles": profiles, "series": series.entries}
+
     try:
-        for k in range(1, nsteps + 1):
+        for k in range(first, nsteps + 1):
             t = k * dt
             ramp = 1.0 if p.load_ramp <= 0 else min(1.0, (k - 1) * dt / p.load_ramp)
             model.step(dt, ramp, p.damping, p.flip)
-            model.migrate_if_needed()
+            due = int(p.checkpoint_seconds > 0 and comm.getRank() == 0
+                      and time.perf_counter() - last_ckpt > p.checkpoint_seconds)
+            signal_seen, due = model.migrate_if_needed((stop.seen, due))
             if k % 50 == 0 or k == nsteps or k in iso_steps:
                 model.check(k, t, scale)
             if k % 10 == 0 or k in iso_steps:
@@ -158,26 +184,37 @@ def run(p, comm) -> int:
                                            cv, c2, p0, prof if comm.getRank() == 0 else None))
             if (p.output_every and k % p.output_every == 0) or k in iso_steps:
                 series.write(points, k, t, cv * t / (H * H))
+            if signal_seen or due or (p.checkpoint_every and k % p.checkpoint_every == 0):
+                checkpoint.write(ckpt_path, comm, points, state(k), p)
+                last_ckpt = time.perf_counter()
+            if signal_seen:
+                raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} s); "
+                                  f"checkpoint {ckpt_path}; continue with "
+                                  f"-mpm_restart {ckpt_path}")
             if p.progress and time.perf_counter() - last_print > p.progress:
                 last_print = time.perf_counter()
                 el = last_print - t_wall
                 PETSc.Sys.Print(f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), t = {t:.4g} s, "
                                 f"T_v = {cv * t / H ** 2:.4f}, p/q(monitor) = "
                                 f"{history[-1][2] if history else float('nan'):.4f}, "
-                                f"{el:.0f} s elapsed, about {el / k * (nsteps - k):.0f} s left",
+                                f"{el:.0f} s elapsed, about "
+                                f"{el / (k - first + 1) * (nsteps - k):.0f} s left",
                                 comm=comm)
         where = model.outside()
         if where is not None:
             raise NumericalError(f"material point {where[0]} left the grid at "
                                  f"({where[1][0]:.4g}, {where[1][1]:.4g}) m by step {k}")
-    except NumericalError as exc:
+    except (NumericalError, Interrupted) as exc:
         stage.pop()
-        summary.update(stable=False, steps=k, failure=str(exc),
-                       wall_seconds=time.perf_counter() - t_wall)
+        stop.restore()
+        blew_up = isinstance(exc, NumericalError)
+        summary.update(stable=not blew_up, interrupted=not blew_up, steps=k,
+                       failure=str(exc), wall_seconds=time.perf_counter() - t_wall)
         if comm.getRank() == 0:
             output.write_json(summary_path, dict(summary, files={"summary": summary_path}))
         raise
     stage.pop()
+    stop.restore()
 
     summary["steps"] = nsteps
     summary["wall_seconds"] = time.perf_counter() - t_wall
@@ -270,6 +307,26 @@ def _print_reports(comm, reports, p):
                      f"{r['error_consistent_pct']:8.2f}%{r['l2_terzaghi']:10.4f}"
                      f"{r['l2_consistent']:10.4f}")
     PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+class _Signals:
+    """Catches SIGTERM and SIGINT (what batch schedulers send before a kill) during the run."""
+
+    def __init__(self):
+        self.seen, self.name = 0, ""
+        self.old = {}
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            try:
+                self.old[sig] = signal.signal(sig, self._catch)
+            except ValueError:      # not the main thread: leave signals alone
+                pass
+
+    def _catch(self, signum, frame):
+        self.seen, self.name = 1, signal.Signals(signum).name
+
+    def restore(self):
+        for sig, handler in self.old.items():
+            signal.signal(sig, handler)
 
 
 class _Series:

@@ -11,3 +11,9 @@ class NumericalError(Exception):
     """A numerical failure: a solver that does not converge, a run that blows up. Exit code 3."""
 
     exit_code = 3
+
+
+class Interrupted(Exception):
+    """A run stopped by SIGTERM or SIGINT after writing a checkpoint. Exit code 4."""
+
+    exit_code = 4

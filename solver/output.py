@@ -24,6 +24,10 @@ _VTK_ORDER = {
 }
 
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
+
 @contextmanager
 def atomic(path):
     """Yield a temporary path next to ``path``; rename it to ``path`` if the block succeeds."""
@@ -34,6 +38,7 @@ def atomic(path):
     os.close(fd)
     try:
         yield tmp
+        os.chmod(tmp, 0o666 & ~_UMASK)   # mkstemp makes 0600; results are for sharing
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

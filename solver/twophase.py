@@ -170,17 +170,24 @@ class TwoPhase:
             raise NumericalError(f"blow-up: pore pressure {big:.3g} Pa (> 1000 x {scale:.3g}) "
                                  f"at step {step}, t = {t:.6g} s")
 
-    def migrate_if_needed(self):
-        """Send points that entered another rank's cells there (collective)."""
+    def migrate_if_needed(self, flags=(0,)):
+        """Send points that entered another rank's cells there (collective).
+
+        ``flags`` are small integers every rank contributes; their maxima over the ranks
+        come back, so that decisions such as stopping are taken together in the same
+        reduction."""
         with self.points.fields("x") as x:
             cx, cy, _, _ = self.grid.locate(x)
             owner = self.grid.cell_owner(cx, cy)
-        rank = self.grid.comm.getRank()
-        moving = bool(np.any(owner != rank))
+        moving = int(np.any(owner != self.grid.comm.getRank()))
         from mpi4py import MPI
 
-        if self.grid.comm.tompi4py().allreduce(moving, op=MPI.LOR):
+        out = np.empty(1 + len(flags), dtype=np.int64)
+        self.grid.comm.tompi4py().Allreduce(np.array([moving, *flags], dtype=np.int64), out,
+                                            op=MPI.MAX)
+        if out[0]:
             self.points.migrate(owner)
+        return out[1:]
 
     def outside(self):
         """Index and position of a point outside the grid, or None."""

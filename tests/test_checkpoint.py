@@ -1,0 +1,102 @@
+"""Checkpoint and restart of consolidation runs; SIGTERM writes a checkpoint and stops."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from conftest import REPO, check_ok
+
+SCENE = ["-mpm_progress", "0", "-mpm_figures", "0"]
+
+
+def _same(a, b, rtol=1e-12):
+    np.testing.assert_allclose(b["monitor"]["p_over_q"], a["monitor"]["p_over_q"], rtol=rtol)
+    for key in ("terzaghi", "consistent"):
+        np.testing.assert_allclose(b["profile_l2"][key], a["profile_l2"][key], rtol=rtol)
+    assert a["steps"] == b["steps"] and a["dt"] == b["dt"]
+
+
+@pytest.mark.parametrize("first,second", [(1, 2), (2, 1)])
+def test_restart_on_other_rank_count_matches_uninterrupted(cli, tmp_path, first, second):
+    end = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05"]
+    full = check_ok(cli(SCENE + end, ranks=1, options_file="consolidation-m2-q4",
+                        out_dir=tmp_path / "full"))
+    part = cli(SCENE + ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02",
+                        "-mpm_checkpoint_every", "700"],
+               ranks=first, options_file="consolidation-m2-q4", out_dir=tmp_path / "part")
+    ckpt = tmp_path / "part" / "checkpoint.npz"
+    assert part.returncode == 0 and ckpt.is_file()
+    res = cli(SCENE + end + ["-mpm_restart", ckpt], ranks=second,
+              options_file="consolidation-m2-q4", out_dir=tmp_path / "rest")
+    rest = check_ok(res)
+    assert "Restart from" in res.stdout
+    _same(full, rest)
+
+
+def test_sigterm_checkpoints_and_the_restart_matches(cli, tmp_path):
+    end = ["-mpm_Tv_end", "0.3", "-mpm_Tv_report", "0.02,0.3"]
+    out = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "solver", "-options_file",
+           str(REPO / "cases" / "consolidation-m1-q4.opts"), *SCENE, *end,
+           "-mpm_checkpoint_every", "1000", "-mpm_output", str(out)]
+    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.time() + 120
+    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 4, stderr
+    line = stderr.strip()
+    assert "\n" not in line and "SIGTERM" in line and "-mpm_restart" in line
+    import json
+
+    with open(out / "summary.json") as fh:
+        summary = json.load(fh)
+    assert summary["interrupted"] is True and summary["stable"] is True
+    assert 0 < summary["steps"]
+    assert not [f for f in os.listdir(out) if f.startswith(".partial")]
+
+    full = check_ok(cli(SCENE + end, options_file="consolidation-m1-q4",
+                        out_dir=tmp_path / "full"))
+    assert summary["steps"] < full["steps"]
+    rest = check_ok(cli(SCENE + end + ["-mpm_restart", out / "checkpoint.npz"], ranks=2,
+                        options_file="consolidation-m1-q4", out_dir=out))
+    _same(full, rest)
+
+
+def _checkpoint(cli, tmp_path):
+    res = cli(SCENE + ["-mpm_Tv_end", "0.002", "-mpm_Tv_report", "0.002",
+                       "-mpm_checkpoint_every", "20"],
+              options_file="consolidation-m1-q4", out_dir=tmp_path / "ck")
+    assert res.returncode == 0
+    return tmp_path / "ck" / "checkpoint.npz"
+
+
+@pytest.mark.parametrize("damage", ["missing", "truncated", "garbage", "other_physics"])
+def test_bad_restart_file_is_an_input_error(cli, tmp_path, damage):
+    ckpt = _checkpoint(cli, tmp_path)
+    args = ["-mpm_restart", ckpt]
+    if damage == "missing":
+        args = ["-mpm_restart", tmp_path / "nothing.npz"]
+    elif damage == "truncated":
+        data = ckpt.read_bytes()
+        ckpt.write_bytes(data[: len(data) // 2])
+    elif damage == "garbage":
+        ckpt.write_bytes(b"not a checkpoint at all\n" * 100)
+    else:
+        args += ["-mpm_E", "2e7"]
+    out = tmp_path / "never"
+    res = cli(SCENE + args, options_file="consolidation-m1-q4", out_dir=out)
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("solver: error: -mpm_restart")
+    if damage == "other_physics":
+        assert "-mpm_E" in lines[0]
+    assert not out.exists()
