@@ -18,13 +18,33 @@ def _options_files(argv):
             yield flag, value
 
 
+def _rank() -> int:
+    """This process's MPI rank before MPI starts (Open MPI, MPICH), 0 when run alone."""
+    for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+        if os.environ.get(var, "").isdigit():
+            return int(os.environ[var])
+    return 0
+
+
 def main(argv=None) -> int:
     argv = list(sys.argv if argv is None else argv)
+    origins = {}
     for flag, path in _options_files(argv):
         if path is None or path.startswith("-"):
-            return _fail(f"{flag}: needs a file name", 2)
+            return _fail(f"{flag}: needs a file name", 2, _rank())
         if not os.path.isfile(path):
-            return _fail(f"{flag} {path}: no such file", 2)
+            return _fail(f"{flag} {path}: no such file", 2, _rank())
+        if flag == "-options_file":
+            from .errors import InputError
+            from .options import scan_file
+
+            try:
+                origins.update(scan_file(path))
+            except InputError as exc:
+                return _fail(str(exc), 2, _rank())
+    for arg in argv:                # the command line overrides the files
+        if arg.startswith("-mpm_"):
+            origins.pop(arg[5:], None)
 
     import petsc4py
 
@@ -41,7 +61,11 @@ def main(argv=None) -> int:
     if "-help" in argv or "-h" in argv:
         PETSc.Sys.Print("Options of the MPM solver (SI units):\n" + options.table(), comm=comm)
         return 0
-    debug = PETSc.Options().getBool("mpm_debug", False)
+    debug = "-mpm_debug" in argv or "mpm_debug" in origins
+    if not debug:
+        # Errors reach us as exceptions and are reported in one line; PETSc's own
+        # multi-line dump would only repeat them.
+        PETSc.Sys.pushErrorHandler("ignore")
     try:
         params = options.read()
         if params.analysis == "eigen":
@@ -57,7 +81,12 @@ def main(argv=None) -> int:
     except (InputError, NumericalError, Interrupted) as exc:
         if debug:
             raise
-        return _fail(str(exc), exc.exit_code, comm.getRank())
+        message = str(exc)
+        if isinstance(exc, InputError):
+            name = message.split(":")[0].split(" ")[0]
+            if name.startswith("-mpm_") and name[5:] in origins:
+                message += f" (set in {origins[name[5:]]})"
+        return _fail(message, exc.exit_code, comm.getRank())
     except PETSc.Error as exc:
         if debug:
             raise

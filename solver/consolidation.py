@@ -19,12 +19,13 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, assembly, checkpoint, eigen, jacobi, output, timestep
+from . import analytic, assembly, checkpoint, eigen, jacobi, memory, output, timestep
 from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
 from .twophase import POINT_FIELDS, TwoPhase
 
+MAX_STEPS = 1e9
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
 
 
@@ -66,6 +67,7 @@ def run(p, comm) -> int:
     """Run the consolidation scene ``p``; returns 0, or raises NumericalError after writing
     the summary of a run that blew up."""
     _validate(p)
+    memory.check(p, comm)
     t_wall = time.perf_counter()
     mpi = comm.tompi4py()
     from mpi4py import MPI
@@ -76,7 +78,10 @@ def run(p, comm) -> int:
     grid = Grid(comm, p.element, p.cells, p.size)
     points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
     restart = checkpoint.read(p.restart, p) if p.restart else None
-    with points.fields("x", "y0", "monitor") as (x, y0, mon):
+    offset = mpi.exscan(points.n_local) or 0
+    with points.fields("x", "y0", "monitor", "id", "J") as (x, y0, mon, ids, J):
+        ids[:] = offset + np.arange(len(ids))     # global numbers, for messages
+        J[:] = 1.0
         y0[:] = x[:, 1]
         if math.isnan(p.monitor_height):
             below = y0[y0 < H / 2 - 1e-12 * H]
@@ -107,6 +112,12 @@ def run(p, comm) -> int:
     exceeded = [k for k, v in limits.items() if dt > v]
     speeds = timestep.wave_speeds(p)
     _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch)
+    stability = {k: limits[k] for k in ("undrained", "drag", "discrete")}
+    worst = max(stability, key=lambda k: dt / stability[k])
+    if dt > 2 * stability[worst] and not p.allow_unstable:
+        raise InputError(f"-mpm_dt {dt:.4g}: {dt / stability[worst]:.1f} x the {worst} "
+                         f"critical time step {stability[worst]:.4g} s; the run would blow "
+                         "up (-mpm_allow_unstable runs it anyway)")
     if exceeded:
         msg = (f"WARNING: dt = {dt:.4g} s exceeds the critical time step(s) "
                + ", ".join(f"{k} {limits[k]:.4g} s" for k in exceeded)
@@ -116,6 +127,9 @@ def run(p, comm) -> int:
 
     cv, c2, p0 = references(p)
     t_end = p.Tv_end * H * H / cv
+    if not t_end / dt < MAX_STEPS:
+        raise InputError(f"-mpm_Tv_end {p.Tv_end}: {t_end / dt:.3g} steps of {dt:.3g} s; "
+                         f"more than {MAX_STEPS:.0e} is not a run that finishes")
     nsteps = int(math.ceil(t_end / dt - 1e-9))
     report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in p.Tv_report}
     iso_steps = {int(round(tv * H * H / (cv * dt))): tv
@@ -200,10 +214,6 @@ def run(p, comm) -> int:
                                 f"{el:.0f} s elapsed, about "
                                 f"{el / (k - first + 1) * (nsteps - k):.0f} s left",
                                 comm=comm)
-        where = model.outside()
-        if where is not None:
-            raise NumericalError(f"material point {where[0]} left the grid at "
-                                 f"({where[1][0]:.4g}, {where[1][1]:.4g}) m by step {k}")
     except (NumericalError, Interrupted) as exc:
         stage.pop()
         stop.restore()

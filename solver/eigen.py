@@ -15,7 +15,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from . import analytic, assembly, jacobi, output
+from . import analytic, assembly, jacobi, memory, output
 from .errors import InputError, NumericalError
 from .grid import Grid
 from .points import place
@@ -111,7 +111,7 @@ def is_paper_scene(p) -> bool:
 
 def run(p, comm) -> dict:
     """The eigen analysis of scene ``p``: solve, compare, print, write; returns the summary."""
-    rank = comm.getRank()
+    memory.check(p, comm)
     stage = PETSc.Log.Stage("Assembly")
     stage.push()
     grid, points, K, M, free = build(comm, p)

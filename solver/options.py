@@ -113,6 +113,8 @@ SPEC = [
            "smallest critical time step", (CONSOLIDATION,), _positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
            (CONSOLIDATION,), lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
+    Option("allow_unstable", "bool", False, "run even with dt more than twice a stability "
+           "limit (for studies of blow-up)", (CONSOLIDATION,)),
     Option("Tv_end", "float", 1.0, "end of the run as Terzaghi time factor T_v",
            (CONSOLIDATION,), _positive),
     Option("Tv_report", "floats", (0.02, 0.5, 1.0), "T_v at which pore pressures are reported",
@@ -145,10 +147,15 @@ SPEC = [
 _BY_NAME = {o.name: o for o in SPEC}
 
 
+LIMIT = 1e30   # larger magnitudes overflow the products the solver forms
+
+
 def _parse_float(text):
     value = float(text)
     if not math.isfinite(value):
         raise ValueError("not a finite number")
+    if abs(value) > LIMIT:
+        raise ValueError(f"outside the range this solver handles (|x| <= {LIMIT:g})")
     return value
 
 
@@ -156,6 +163,8 @@ def _parse_int(text):
     value = float(text)
     if not math.isfinite(value) or value != int(value):
         raise ValueError("not an integer")
+    if abs(value) > 2**31 - 1:
+        raise ValueError("outside the 32-bit integer range")
     return int(value)
 
 
@@ -240,6 +249,37 @@ def read(spec=None, db=None) -> SimpleNamespace:
         if analysis not in by_name[name].used_by:
             raise InputError(f"-{PREFIX}{name}: not used by -{PREFIX}analysis {analysis}")
     return SimpleNamespace(**values, given=tuple(sorted(given)))
+
+
+def scan_file(path: str) -> dict:
+    """Check a plain PETSc options file line by line before PETSc reads it.
+
+    Returns where each ``-mpm_`` option is set, ``{name: "path:line"}``. A line must be empty,
+    a comment (``#``) or ``-option [value]``; anything else is an InputError naming the file
+    and line (PETSc itself would stop with a multi-line error dump).
+    """
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror})") from None
+    if "\0" in text:
+        raise InputError(f"{path}: not a text file")
+    where = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        tokens = line.split("#", 1)[0].split()
+        if not tokens:
+            continue
+        if not tokens[0].startswith("-") or len(tokens[0]) < 2 or len(tokens) > 2:
+            raise InputError(f"{path}:{number}: expected '-option [value]', found "
+                             f"'{line.strip()[:60]}'")
+        name = tokens[0][1:]
+        if name.startswith(PREFIX):
+            where[name[len(PREFIX):]] = f"{path}:{number}"
+    return where
 
 
 def table(spec=None) -> str:

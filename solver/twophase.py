@@ -32,7 +32,8 @@ NF = 12   # packed nodal fields: Ms, Ml, Mt, Q, Ps(2), Pl(2), Fm(2), Fl(2)
 NG = 8    # fields sent back to the points: a_s(2), a_l(2), v_s(2), v_l(2)
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
-POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "y0": 1, "monitor": 1}
+POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "y0": 1, "monitor": 1, "id": 1,
+                "J": 1}
 
 
 class TwoPhase:
@@ -75,8 +76,8 @@ class TwoPhase:
     # -- one step --------------------------------------------------------------------------
     def step(self, dt: float, load_factor: float, damping: float, flip: float):
         p = self.p
-        with self.points.fields("x", "volume", "mass", "vs", "vl", "stress", "p") as (
-                x, V, m, vs, vl, sig, pp):
+        with self.points.fields("x", "volume", "mass", "vs", "vl", "stress", "p", "J") as (
+                x, V, m, vs, vl, sig, pp, J):
             it = assembly.interpolation(self.grid, x)
             N, dN, nodes = it.N, it.dNdx, it.nodes
             w = assembly.lumping_weights(N, self.lumping)
@@ -152,23 +153,46 @@ class TwoPhase:
             div_s = Ls[:, 0, 0] + Ls[:, 1, 1]
             pp -= dt * p.K_l / self.n * ((1 - self.n) * div_s + self.n * div_l)
             x += dt * at[:, 4:6]
+            J *= 1 + dt * div_s           # volume ratio of the solid, to catch inversion
 
     def check(self, step: int, t: float, scale: float):
-        """Raise NumericalError if any point field is non-finite or has grown without bound."""
-        with self.points.fields("p", "vs", "vl") as (pp, vs, vl):
-            bad = not (np.all(np.isfinite(pp)) and np.all(np.isfinite(vs))
-                       and np.all(np.isfinite(vl)))
-            big = float(np.max(np.abs(pp))) if pp.size else 0.0
-        mpi = self.grid.comm.tompi4py()
+        """Stop (NumericalError, on every rank) on non-finite values, unbounded pore pressure,
+        an inverted material point or one that left the grid; name the point and the step."""
+        with self.points.fields("p", "vs", "vl", "J", "x", "id") as (pp, vs, vl, J, x, ids):
+            W, H = self.grid.size
+            tol = 1e-9 * max(W, H)
+            problems = [
+                ~(np.isfinite(pp) & np.isfinite(vs).all(axis=1) & np.isfinite(vl).all(axis=1)),
+                np.abs(pp) > 1e3 * scale,
+                J <= 0,
+                (x[:, 0] < -tol) | (x[:, 0] > W + tol) | (x[:, 1] < -tol) | (x[:, 1] > H + tol),
+            ]
+            first = [int(ids[m][0]) if m.any() else -1 for m in problems]
+            detail = {}
+            for kind, m in enumerate(problems):
+                if m.any():
+                    i = np.flatnonzero(m)[0]
+                    detail[kind] = (float(pp[i]), float(J[i]), x[i].tolist())
         from mpi4py import MPI
 
-        bad = mpi.allreduce(bad, op=MPI.LOR)
-        big = mpi.allreduce(big, op=MPI.MAX)
-        if bad:
-            raise NumericalError(f"blow-up: non-finite values at step {step}, t = {t:.6g} s")
-        if big > 1e3 * scale:
-            raise NumericalError(f"blow-up: pore pressure {big:.3g} Pa (> 1000 x {scale:.3g}) "
-                                 f"at step {step}, t = {t:.6g} s")
+        mpi = self.grid.comm.tompi4py()
+        found = np.zeros(len(first), dtype=np.int64)
+        mpi.Allreduce((np.array(first) >= 0).astype(np.int64), found, op=MPI.MAX)
+        if not found.any():
+            return
+        kind = int(np.flatnonzero(found)[0])
+        owner = mpi.allreduce(self.grid.comm.getRank() if first[kind] >= 0 else -1, op=MPI.MAX)
+        pid, info = mpi.bcast((first[kind], detail.get(kind)), root=owner)
+        pval, Jval, pos = info
+        where = f"material point {pid} at ({pos[0]:.4g}, {pos[1]:.4g}) m, step {step}, " \
+                f"t = {t:.6g} s"
+        raise NumericalError([
+            f"blow-up: non-finite values at {where}",
+            f"blow-up: pore pressure {pval:.3g} Pa (> 1000 x {scale:.3g}) at {where}",
+            f"inverted: volume ratio J = {Jval:.3g} at {where}",
+            f"{where.split(',')[0]} left the grid at ({pos[0]:.4g}, {pos[1]:.4g}) m by step "
+            f"{step}, t = {t:.6g} s",
+        ][kind])
 
     def migrate_if_needed(self, flags=(0,)):
         """Send points that entered another rank's cells there (collective).
@@ -189,11 +213,3 @@ class TwoPhase:
             self.points.migrate(owner)
         return out[1:]
 
-    def outside(self):
-        """Index and position of a point outside the grid, or None."""
-        with self.points.fields("x") as x:
-            W, H = self.grid.size
-            tol = 1e-9 * max(W, H)
-            out = np.flatnonzero((x[:, 0] < -tol) | (x[:, 0] > W + tol)
-                                 | (x[:, 1] < -tol) | (x[:, 1] > H + tol))
-            return (int(out[0]), x[out[0]].copy()) if out.size else None

@@ -204,9 +204,20 @@ def test_bad_input(cli, tmp_path, option, value):
     assert not out.exists()
 
 
+def test_dt_far_above_the_limits_needs_allow_unstable(cli, tmp_path):
+    out = tmp_path / "never"
+    res = cli(["-mpm_dt", "5e-4", "-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05"],
+              options_file="consolidation-m1-q4", out_dir=out)
+    assert res.returncode == 2
+    line = res.stderr.strip()
+    assert line.startswith("solver: error: -mpm_dt") and "-mpm_allow_unstable" in line
+    assert not out.exists()
+
+
 def test_blow_up_exits_3_with_summary(cli, tmp_path):
     res = cli(["-mpm_dt", "5e-4", "-mpm_Tv_end", "0.05", "-mpm_progress", "0",
-               "-mpm_Tv_report", "0.05"], options_file="consolidation-m1-q4")
+               "-mpm_Tv_report", "0.05", "-mpm_allow_unstable"],
+              options_file="consolidation-m1-q4")
     assert res.returncode == 3
     assert "WARNING" in res.stdout
     line = res.stderr.strip()

@@ -1,0 +1,45 @@
+"""A memory estimate made before anything is allocated, so that an oversized model is an
+input error with a number rather than a crash half-way."""
+
+from __future__ import annotations
+
+import os
+
+from .errors import InputError
+from .shapes import ORDER
+
+# Bytes per material point of a consolidation step (fields, shape functions, packed
+# transfers, temporaries) and per grid node: generous estimates, not measurements; they only
+# have to separate a model that fits from one that cannot.
+BYTES_PER_POINT = 4000
+BYTES_PER_NODE = 2000
+
+
+def available() -> int:
+    """Physical memory of this machine (bytes)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return 1 << 62
+
+
+def estimate(p) -> int:
+    """Bytes the whole job needs, over all ranks."""
+    nx, ny = p.cells
+    k = ORDER[p.element]
+    nodes = (k * nx + 1) * (k * ny + 1)
+    points = nx * ny * p.ppc ** 2
+    total = points * BYTES_PER_POINT + nodes * BYTES_PER_NODE
+    if p.analysis == "eigen" and "jacobi" in p.eigen_solver:
+        total += 3 * 8 * (2 * nodes) ** 2          # dense K, M and Phi^T rows
+    return total
+
+
+def check(p, comm=None):
+    """InputError if the model cannot fit in this machine's memory."""
+    need, have = estimate(p), available()
+    if need > 0.8 * have:
+        raise InputError(f"-mpm_cells {p.cells[0]},{p.cells[1]}: the model needs about "
+                         f"{need / 2**30:.1f} GiB, more than this machine's "
+                         f"{have / 2**30:.1f} GiB allows (fewer cells or points per cell; "
+                         "-mpm_eigen_solver slepc avoids Jacobi's dense matrices)")
