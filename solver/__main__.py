@@ -61,7 +61,8 @@ def main(argv=None) -> int:
     if "-help" in argv or "-h" in argv:
         PETSc.Sys.Print("Options of the MPM solver (SI units):\n" + options.table(), comm=comm)
         return 0
-    debug = "-mpm_debug" in argv or "mpm_debug" in origins
+    debug = PETSc.Options().getString("mpm_debug", "false")
+    debug = str(debug or "true").strip().lower() not in ("0", "false", "no", "off")
     if not debug:
         # Errors reach us as exceptions and are reported in one line; PETSc's own
         # multi-line dump would only repeat them.

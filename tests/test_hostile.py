@@ -1,0 +1,135 @@
+"""Hostile input, tried systematically: every failure is a clean exit code and one line.
+
+Random option values (seeded), negative, huge and non-finite numbers, truncated and corrupted
+scene files and checkpoints. Each run must end with exit code 0, 2 (bad input) or 3
+(numerical failure); when it fails, stderr holds exactly one `solver: error:` line and no
+Python traceback.
+"""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+from conftest import REPO
+
+JUNK = ["", "nan", "inf", "-inf", "1e31", "-1e31", "-1", "0", "abc", "1,2,3", ",", "1e-320",
+        "99999999999", "0x10", "1..2", "  ", "true", "-0", "1,nan", "q5", "4,", ",4"]
+
+
+def _clean(res):
+    assert res.returncode in (0, 2, 3), (res.returncode, res.stderr[-2000:])
+    assert "Traceback" not in res.stderr, res.stderr[-2000:]
+    if res.returncode:
+        lines = res.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("solver: error: "), res.stderr[-2000:]
+
+
+def test_every_option_with_junk_in_process():
+    """Each -mpm_ option with each junk value: parsed, or an InputError naming it."""
+    from petsc4py import PETSc
+
+    from solver import options
+    from solver.errors import InputError
+
+    for opt in options.SPEC:
+        analysis = "consolidation" if "eigen" not in opt.used_by else "eigen"
+        for value in JUNK:
+            db = PETSc.Options()
+            for key in list(db.getAll()):
+                db.delValue(key)
+            db.setValue("mpm_analysis", analysis)
+            db.setValue(f"mpm_{opt.name}", value)
+            try:
+                options.read(db=db)
+            except InputError as exc:
+                text = str(exc)
+                assert "\n" not in text and f"-mpm_{opt.name}" in text, (opt.name, value, text)
+            finally:
+                for key in list(db.getAll()):
+                    db.delValue(key)
+
+
+EIGEN_ARGS = ["-mpm_figures", "0"]
+CONS_ARGS = ["-mpm_figures", "0", "-mpm_progress", "0", "-mpm_Tv_end", "0.002",
+             "-mpm_Tv_report", "0.002"]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_option_values_on_the_command_line(cli, tmp_path, seed):
+    from solver import options
+
+    rng = random.Random(seed)
+    scene, base = rng.choice([("eigen-q4", EIGEN_ARGS), ("consolidation-m1-q4", CONS_ARGS)])
+    analysis = "eigen" if scene.startswith("eigen") else "consolidation"
+    usable = [o for o in options.SPEC if analysis in o.used_by and o.name not in
+              ("analysis", "output", "summary", "restart", "Tv_end", "progress",
+                        "debug")]
+    args = list(base)
+    for opt in rng.sample(usable, 3):
+        value = rng.choice(JUNK + ["2", "0.3", "1e6", "-5", "3,7", "q9", "gauss"])
+        args += [f"-mpm_{opt.name}", value]
+    _clean(cli(args, options_file=scene, timeout=120))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_truncated_and_corrupted_scene_files(cli, tmp_path, seed):
+    rng = random.Random(100 + seed)
+    data = (REPO / "cases" / "eigen-q4.opts").read_bytes()
+    if seed % 2:
+        data = data[: rng.randrange(len(data))]
+    else:
+        data = bytearray(data)
+        for _ in range(5):
+            data[rng.randrange(len(data))] = rng.randrange(256)
+        data = bytes(data)
+    scene = tmp_path / "scene.opts"
+    scene.write_bytes(data)
+    out = tmp_path / "out"
+    res = cli(EIGEN_ARGS + ["-mpm_output", out], options_file=scene, out_dir=out)
+    _clean(res)
+    if res.returncode == 2:
+        assert not out.exists()
+
+
+def test_malformed_scene_file_names_file_and_line(cli, tmp_path):
+    scene = tmp_path / "bad.opts"
+    scene.write_text("-mpm_analysis eigen\n# fine\nmpm_E 10e6\n")
+    res = cli([], options_file=scene)
+    assert res.returncode == 2
+    assert f"{scene}:3:" in res.stderr and res.stderr.count("\n") == 1
+
+
+def test_bad_value_in_a_scene_file_names_its_line(cli, tmp_path):
+    scene = tmp_path / "bad.opts"
+    scene.write_text("-mpm_analysis eigen\n-mpm_nu 0.7\n")
+    res = cli([], options_file=scene)
+    assert res.returncode == 2
+    assert "-mpm_nu" in res.stderr and f"{scene}:2" in res.stderr
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_corrupted_checkpoint(cli, tmp_path, seed):
+    ck = cli(CONS_ARGS + ["-mpm_checkpoint_every", "10"], options_file="consolidation-m1-q4",
+             out_dir=tmp_path / "ck")
+    assert ck.returncode == 0
+    path = tmp_path / "ck" / "checkpoint.npz"
+    data = bytearray(path.read_bytes())
+    rng = random.Random(seed)
+    for _ in range(20):
+        data[rng.randrange(len(data))] = rng.randrange(256)
+    path.write_bytes(bytes(data))
+    res = cli(CONS_ARGS + ["-mpm_restart", path], options_file="consolidation-m1-q4",
+              out_dir=tmp_path / "rest")
+    _clean(res)
+
+
+def test_too_large_a_model_is_refused(cli, tmp_path):
+    res = cli(["-mpm_cells", "100000,100000"], options_file="consolidation-m1-q4")
+    assert res.returncode == 2 and "GiB" in res.stderr
+
+
+def test_too_many_steps_are_refused(cli, tmp_path):
+    res = cli(CONS_ARGS[:4] + ["-mpm_Tv_end", "1e12", "-mpm_Tv_report", "1"],
+              options_file="consolidation-m1-q4")
+    assert res.returncode == 2 and "-mpm_Tv_end" in res.stderr
