@@ -41,6 +41,12 @@ def _validate(p):
         raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
 
 
+def load_scale(p) -> float:
+    """The pressure that normalises p (Pa): the surface load q, or without one the weight
+    of the column per unit area, rho_m g H."""
+    return p.load if p.load > 0 else eigen.mixture_density(p) * p.gravity * p.size[1]
+
+
 def references(p):
     """Scales of both analytic references: (c_v, c2, p0_consistent / q)."""
     E_c = assembly.constrained_modulus(p.E, p.nu)
@@ -141,7 +147,7 @@ def run(p, comm) -> int:
                     comm=comm)
 
     model = TwoPhase(grid, points, p, bcs, lumping)
-    q = p.load
+    q = load_scale(p)
     scale = max(q, eigen.mixture_density(p) * p.gravity * H, 1.0)
     files = {}
     series = _Series(p.output, comm)
@@ -271,7 +277,7 @@ def _profile(points, comm):
 
 
 def _report(Tv, t, points, mpi, p, height, cv, c2, p0, prof):
-    H, q = p.size[1], p.load
+    H, q = p.size[1], load_scale(p)
     num = _monitor(points, mpi) / q
     ref = float(analytic.terzaghi(H - height, Tv, H))
     con = float(analytic.terzaghi(H - height, Tv * c2 / cv, H, p0))
@@ -382,7 +388,7 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
     if not p.figures:
         return files
     plt = output.pyplot()
-    H, q = p.size[1], p.load
+    H, q = p.size[1], load_scale(p)
     files["isochrones_png"] = os.path.join(p.output, "isochrones.png")
     fig, ax = plt.subplots(figsize=(6, 6))
     z = np.linspace(0, H, 300)

@@ -190,7 +190,7 @@ class TwoPhase:
             f"blow-up: non-finite values at {where}",
             f"blow-up: pore pressure {pval:.3g} Pa (> 1000 x {scale:.3g}) at {where}",
             f"inverted: volume ratio J = {Jval:.3g} at {where}",
-            f"{where.split(',')[0]} left the grid at ({pos[0]:.4g}, {pos[1]:.4g}) m by step "
+            f"material point {pid} left the grid at ({pos[0]:.4g}, {pos[1]:.4g}) m by step "
             f"{step}, t = {t:.6g} s",
         ][kind])
 

@@ -116,14 +116,17 @@ def test_q8_no_worse_than_paper(cli):
     assert abs(s["monitor"]["error_pct"][0]) <= PAPER_ERRORS["m1-q8"][0]
 
 
-@pytest.mark.parametrize("case", ["m2-q4", "m1-q9"])
-def test_one_and_two_ranks_agree(cli, tmp_path, case):
+@pytest.mark.parametrize("case,ranks", [("m2-q4", 2), ("m1-q9", 2), ("m1-q4", 3),
+                                        ("m2-q4", 4)])
+def test_one_and_more_ranks_agree(cli, tmp_path, case, ranks):
+    """Including more ranks than cells across (the 1-cell-wide column on 3 ranks)."""
     args = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05", "-mpm_progress", "0",
             "-mpm_figures", "0"]
     a = check_ok(cli(args, ranks=1, options_file=f"consolidation-{case}",
                      out_dir=tmp_path / "n1"))
-    b = check_ok(cli(args, ranks=2, options_file=f"consolidation-{case}",
+    b = check_ok(cli(args, ranks=ranks, options_file=f"consolidation-{case}",
                      out_dir=tmp_path / "n2"))
+    assert b["ranks"] == ranks
     assert a["dt"] == b["dt"] and a["steps"] == b["steps"]
     for key in ("p_over_q",):
         np.testing.assert_allclose(b["monitor"][key], a["monitor"][key], rtol=1e-10)
