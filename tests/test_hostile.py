@@ -148,3 +148,13 @@ def test_point_leaving_the_grid_stops_the_run(cli, tmp_path):
     # Free fall: the lowest points (y = 0.025 m) leave after sqrt(2 y / g) = 0.071 s.
     t = float(line.split("t = ")[1].split(" ")[0])
     assert 0.06 < t < 0.12
+
+
+def test_inverted_point_stops_the_run(cli, tmp_path):
+    """1 GPa on a 10 MPa soil: the undrained strain q / (K_l/n + E_c) > 1 inverts points."""
+    res = cli(["-mpm_load", "1e9", "-mpm_Tv_end", "0.01", "-mpm_Tv_report", "0.01",
+               "-mpm_progress", "0", "-mpm_figures", "0"], options_file="consolidation-m1-q4")
+    assert res.returncode == 3
+    line = res.stderr.strip()
+    assert "\n" not in line and line.startswith("solver: error: inverted: volume ratio J = -")
+    assert "material point" in line and res.summary["stable"] is False
