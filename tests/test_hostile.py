@@ -158,3 +158,56 @@ def test_inverted_point_stops_the_run(cli, tmp_path):
     line = res.stderr.strip()
     assert "\n" not in line and line.startswith("solver: error: inverted: volume ratio J = -")
     assert "material point" in line and res.summary["stable"] is False
+
+
+def test_non_finite_values_are_caught():
+    """A NaN in one point's pore pressure stops the run and names the point and step."""
+    import numpy as np
+    from petsc4py import PETSc
+
+    from solver import eigen, options
+    from solver.errors import NumericalError
+    from solver.grid import Grid
+    from solver.points import place
+    from solver.twophase import POINT_FIELDS, TwoPhase
+
+    db = PETSc.Options()
+    for key in list(db.getAll()):
+        db.delValue(key)
+    db.setValue("mpm_analysis", "consolidation")
+    try:
+        p = options.read(db=db)
+    finally:
+        db.delValue("mpm_analysis")
+    grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
+    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
+    with points.fields("J", "id") as (J, ids):
+        J[:] = 1.0
+        ids[:] = np.arange(len(ids))
+    model = TwoPhase(grid, points, p, eigen.boundary_conditions(p), "rowsum")
+    model.check(1, 0.0, 1e4)                      # a sound state passes
+    with points.fields("p") as pp:
+        pp[3] = np.nan
+    with pytest.raises(NumericalError, match=r"non-finite values at material point 3 .*step 7"):
+        model.check(7, 0.5, 1e4)
+
+
+def test_sigint_and_timed_checkpoints(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "solver", "-options_file",
+           str(REPO / "cases" / "consolidation-m1-q4.opts"), "-mpm_progress", "0",
+           "-mpm_figures", "0", "-mpm_checkpoint_seconds", "0.2", "-mpm_output", str(out)]
+    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.time() + 120
+    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
+        time.sleep(0.05)
+    assert (out / "checkpoint.npz").exists(), "no timed checkpoint"
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 4 and "SIGINT" in stderr and stderr.count("\n") == 1
