@@ -111,13 +111,6 @@ class Grid:
         node = self.local_node(i, j)
         return np.stack([2 * node, 2 * node + 1], axis=-1).reshape(node.shape[0], -1)
 
-    def owned_node_coordinates(self):
-        """Coordinates (m) of the owned nodes in the order of the global Vec, shape (nown, 2)."""
-        hx, hy = self.h[0] / self.p, self.h[1] / self.p
-        I, J = np.meshgrid(np.arange(self.xs, self.xe), np.arange(self.ys, self.ye),
-                           indexing="xy")
-        return np.stack([I.ravel() * hx, J.ravel() * hy], axis=-1)
-
     def lattice_coordinates(self):
         """Coordinates (m) of all lattice nodes in natural order (row by row), shape (N, 2)."""
         hx, hy = self.h[0] / self.p, self.h[1] / self.p

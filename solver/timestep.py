@@ -169,7 +169,3 @@ def criteria(p, f1: float, dt_discrete: float, grid) -> dict:
     return {"cfl": L / s["c"], "undrained": L / s["c1"], "diffusion": L * L / (2 * s["c2"]),
             "oscillator": L / c3, "drag": 2 / drag_rate(p), "discrete": dt_discrete}
 
-
-# Criteria that bound stability; the oscillator criterion is Table 1's but, built on the
-# lowest frequency, it does not.
-STABILITY = ("cfl", "undrained", "diffusion", "oscillator", "drag", "discrete")
