@@ -159,12 +159,8 @@ def solve(K, M, nmodes: int, tol: float = 1e-15, max_sweeps: int = 50) -> Jacobi
     if n2 > n:
         W[mine == n, 0, n] = W[mine == n, 1, n] = 1.0
 
-    def diagonals(idx):
-        r = np.arange(nloc)
-        return W[r, 0, idx], W[r, 1, idx]
-
     lam_old = np.zeros(n2)
-    kd, md = diagonals(index[mine])
+    kd, md = W[np.arange(nloc), 0, mine], W[np.arange(nloc), 1, mine]
     with np.errstate(divide="ignore", invalid="ignore"):
         lam_old[index[mine]] = kd / md
     lam_old = _allreduce_sum(slots, lam_old)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from . import assembly
+from . import analytic, assembly
 from .eigen import boundary_conditions, mixture_density
 
 G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defined
@@ -26,6 +26,13 @@ G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defin
 def unit_weight(p) -> float:
     """gamma_w = rho_l g (N/m3) of the liquid, with the g that defines k."""
     return p.rho_l * G_REF
+
+
+def drag_coefficient(p) -> float:
+    """n mu_l / kappa_l of eq. (12) (kg/m3/s), with the intrinsic permeability
+    kappa_l = k mu_l / (rho_l g): the drag per unit volume and unit relative velocity."""
+    kappa = p.k * p.mu_l / (p.rho_l * G_REF)
+    return p.porosity * p.mu_l / kappa
 
 
 def drag_rate(p) -> float:
@@ -39,7 +46,8 @@ def wave_speeds(p) -> dict:
     E_c = assembly.constrained_modulus(p.E, p.nu)
     rho = mixture_density(p)
     return {"c": np.sqrt(E_c / rho), "c1": np.sqrt((E_c + p.K_l / p.porosity) / rho),
-            "c2": p.k / (unit_weight(p) * (1 / E_c + p.porosity / p.K_l))}
+            "c2": analytic.consistent_coefficient(p.k, E_c, unit_weight(p), p.K_l,
+                                                  p.porosity)}
 
 
 def impermeable(drained) -> dict:
@@ -104,8 +112,7 @@ def _linear_step(grid, points, p, lumping):
     Nm, Wm = spread(N), spread(assembly.lumping_weights(N, lumping))
     Dx, Dy = spread(dN[..., 0]), spread(dN[..., 1])
     ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
-    kappa = p.k * p.mu_l / (p.rho_l * G_REF)
-    Ms, Ml, Mt, Q = (Wm.T @ v for v in (ms, ml, mt, n * p.mu_l / kappa * V))
+    Ms, Ml, Mt, Q = (Wm.T @ v for v in (ms, ml, mt, drag_coefficient(p) * V))
     Z = np.zeros_like(Dx)
     B = np.stack([np.hstack([Dx, Z]), np.hstack([Z, Dy]), np.hstack([Dy, Dx])], axis=1)
     div = B[:, 0] + B[:, 1]

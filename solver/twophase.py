@@ -26,7 +26,7 @@ from petsc4py import PETSc
 
 from . import assembly, shapes
 from .errors import NumericalError
-from .timestep import G_REF, impermeable
+from .timestep import drag_coefficient, impermeable
 
 NF = 12   # packed nodal fields: Ms, Ml, Mt, Q, Ps(2), Pl(2), Fm(2), Fl(2)
 NG = 8    # fields sent back to the points: a_s(2), a_l(2), v_s(2), v_l(2)
@@ -46,8 +46,7 @@ class TwoPhase:
         self.gvec = np.array([0.0, -p.gravity])
         n = p.porosity
         self.n = n
-        kappa = p.k * p.mu_l / (p.rho_l * G_REF)          # intrinsic permeability (m2)
-        self.drag = n * p.mu_l / kappa                      # eq. 12, per unit volume (kg/m3/s)
+        self.drag = drag_coefficient(p)                     # eq. 12 (kg/m3/s)
         self.da_f = grid.da.duplicate(dof=NF)
         self.da_g = grid.da.duplicate(dof=NG)
         self.loc_f, self.glob_f = self.da_f.createLocalVec(), self.da_f.createGlobalVec()
