@@ -19,7 +19,8 @@ from .errors import InputError
 # Options that do not change the physics of a run: they may differ on restart.
 FREE_OPTIONS = {"output", "summary", "figures", "debug", "progress", "restart",
                 "checkpoint_every", "checkpoint_seconds", "output_every", "Tv_end", "Tv_report",
-                "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes"}
+                "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
+                "stability_analysis"}
 VERSION = 1
 
 

@@ -19,7 +19,8 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, assembly, checkpoint, eigen, jacobi, memory, output, timestep
+from . import (analytic, assembly, checkpoint, eigen, jacobi, memory, output, timestep,
+               workprecision)
 from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
@@ -39,6 +40,10 @@ def _validate(p):
         raise InputError(f"-mpm_Tv_report {late[0]}: after -mpm_Tv_end {p.Tv_end}")
     if p.load == 0 and p.gravity == 0:
         raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
+    if p.work_precision and math.isnan(p.target_error):
+        raise InputError("-mpm_work_precision: only used with -mpm_target_error")
+    if not math.isnan(p.target_error) and not math.isnan(p.dt):
+        raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
 
 
 def load_scale(p) -> float:
@@ -56,10 +61,13 @@ def references(p):
     return cv, c2, analytic.undrained_pressure(1.0, E_c, p.K_l, p.porosity)
 
 
+JACOBI_MAX_DOFS = 3000   # f1 by SLEPc above this: Jacobi's dense matrices grow as n^2
+
+
 def fundamental_frequency(comm, p) -> float:
     """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3."""
     _, pts, K, M, free = eigen.build(comm, p)
-    if p.eigen_solver[0] == "jacobi":
+    if p.eigen_solver[0] == "jacobi" and K.getSize()[0] <= JACOBI_MAX_DOFS:
         lam = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps).eigenvalues[0]
     else:
         lam = eigen.slepc_solve(K, M, 1)[0][0]
@@ -73,6 +81,14 @@ def run(p, comm) -> int:
     """Run the consolidation scene ``p``; returns 0, or raises NumericalError after writing
     the summary of a run that blew up."""
     _validate(p)
+    target = None
+    if not math.isnan(p.target_error):
+        choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
+        workprecision.apply(p, choice)
+        PETSc.Sys.Print("\n".join(lines), comm=comm)
+        target = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
+                                                          workprecision.PICKED},
+                  "measured_pct": choice["measure"], "why": lines}
     memory.check(p, comm)
     t_wall = time.perf_counter()
     mpi = comm.tompi4py()
@@ -106,8 +122,13 @@ def run(p, comm) -> int:
     stage = PETSc.Log.Stage("Critical time steps")
     stage.push()
     f1 = fundamental_frequency(comm, p)
-    dt_discrete, patch = timestep.discrete_limit(comm, p, lumping)
+    if p.stability_analysis:
+        dt_discrete, patch = timestep.discrete_limit(comm, p, lumping)
+    else:
+        dt_discrete, patch = math.nan, p.cells
     limits = timestep.criteria(p, f1, dt_discrete, grid)
+    if math.isnan(dt_discrete):
+        del limits["discrete"]
     stage.pop()
     smallest = min(limits, key=limits.get)
     # Rounded down to 3 significant digits: the limits come from iterative eigensolvers whose
@@ -118,7 +139,7 @@ def run(p, comm) -> int:
     exceeded = [k for k, v in limits.items() if dt > v]
     speeds = timestep.wave_speeds(p)
     _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch)
-    stability = {k: limits[k] for k in ("undrained", "drag", "discrete")}
+    stability = {k: limits[k] for k in ("undrained", "drag", "discrete") if k in limits}
     worst = max(stability, key=lambda k: dt / stability[k])
     if dt > 2 * stability[worst] and not p.allow_unstable:
         raise InputError(f"-mpm_dt {dt:.4g}: {dt / stability[worst]:.1f} x the {worst} "
@@ -171,7 +192,9 @@ def run(p, comm) -> int:
                "dt_critical": limits, "dt_governing": smallest, "dt_exceeds": exceeded,
                "lumping": lumping, "damping": p.damping, "flip": p.flip,
                "f1_hz": f1, "c_v": cv, "c2": c2,
-               "p0_consistent_over_q": p0}
+               "p0_consistent_over_q": p0, "scene": workprecision.scene_signature(p)}
+    if target is not None:
+        summary["target"] = target
     summary_path = p.summary or os.path.join(p.output, "summary.json")
     stage = PETSc.Log.Stage("Explicit steps")
     stage.push()
@@ -245,6 +268,12 @@ def run(p, comm) -> int:
                              "terzaghi": [r["l2_terzaghi"] for r in reports],
                              "consistent": [r["l2_consistent"] for r in reports]}
     _print_reports(comm, reports, p)
+    if target is not None:
+        target["achieved_pct"] = workprecision.measure(summary)
+        met = target["achieved_pct"] <= p.target_error
+        PETSc.Sys.Print(f"Target error {p.target_error:g} %: this run reached "
+                        f"{target['achieved_pct']:.2f} % ({'met' if met else 'NOT met'})",
+                        comm=comm)
     files["summary"] = summary_path
     files["fields_pvd"] = series.pvd
     if comm.getRank() == 0:
@@ -385,6 +414,14 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
     files["monitor_csv"] = os.path.join(p.output, "monitor.csv")
     with output.atomic(files["monitor_csv"]) as tmp:
         np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q", comments="")
+    # Every point's pore pressure at every isochrone time: enough to redraw Figs 3-5.
+    files["profiles_csv"] = os.path.join(p.output, "profiles.csv")
+    rows = [np.column_stack([np.full(len(prof), Tv), np.full(len(prof), t), prof[:, 3],
+                             prof[:, 0], prof[:, 1] / load_scale(p), prof[:, 2]])
+            for Tv, t, prof in profiles]
+    with output.atomic(files["profiles_csv"]) as tmp:
+        np.savetxt(tmp, np.concatenate(rows) if rows else np.zeros((0, 6)), delimiter=",",
+                   header="Tv,t_s,x_m,y0_m,p_over_q,volume_m3", comments="")
     if not p.figures:
         return files
     plt = output.pyplot()

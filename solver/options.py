@@ -113,6 +113,16 @@ SPEC = [
            "smallest critical time step", (CONSOLIDATION,), _positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
            (CONSOLIDATION,), lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
+    Option("stability_analysis", "bool", True, "compute the discrete stability limit of the "
+           "step (a dense analysis; 0: Table 1's criteria and the drag limit only)",
+           (CONSOLIDATION,)),
+    Option("target_error", "float", float("nan"), "accuracy target (%): pick the cheapest "
+           "element, cells, points per cell and dt_safety that the measured work-precision "
+           "data say meet it (error at the monitor point against the compressible-water "
+           "Terzaghi solution, largest over T_v = 0.5 and 1)", (CONSOLIDATION,), _positive),
+    Option("work_precision", "str", "", "work-precision data for -mpm_target_error (default: "
+           "the data measured on the paper's column, shipped with the solver)",
+           (CONSOLIDATION,)),
     Option("allow_unstable", "bool", False, "run even with dt more than twice a stability "
            "limit (for studies of blow-up)", (CONSOLIDATION,)),
     Option("Tv_end", "float", 1.0, "end of the run as Terzaghi time factor T_v",

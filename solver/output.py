@@ -67,6 +67,13 @@ def write_json(path, data):
             fh.write("\n")
 
 
+def write_text(path, text: str):
+    """Write ``text`` (a Markdown table, a CSV) whole or not at all."""
+    with atomic(path) as tmp:
+        with open(tmp, "w") as fh:
+            fh.write(text if text.endswith("\n") else text + "\n")
+
+
 def grid_cells(grid):
     """meshio cell block of the background grid: (cell type, connectivity in natural order)."""
     kind, order = _VTK_ORDER[grid.element]
