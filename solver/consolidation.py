@@ -81,12 +81,12 @@ def run(p, comm) -> int:
     """Run the consolidation scene ``p``; returns 0, or raises NumericalError after writing
     the summary of a run that blew up."""
     _validate(p)
-    target = None
+    goal = None
     if not math.isnan(p.target_error):
         choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
         workprecision.apply(p, choice)
         PETSc.Sys.Print("\n".join(lines), comm=comm)
-        target = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
+        goal = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
                                                           workprecision.PICKED},
                   "measured_pct": choice["measure"], "why": lines}
     memory.check(p, comm)
@@ -193,8 +193,8 @@ def run(p, comm) -> int:
                "lumping": lumping, "damping": p.damping, "flip": p.flip,
                "f1_hz": f1, "c_v": cv, "c2": c2,
                "p0_consistent_over_q": p0, "scene": workprecision.scene_signature(p)}
-    if target is not None:
-        summary["target"] = target
+    if goal is not None:
+        summary["target"] = goal
     summary_path = p.summary or os.path.join(p.output, "summary.json")
     stage = PETSc.Log.Stage("Explicit steps")
     stage.push()
@@ -268,11 +268,11 @@ def run(p, comm) -> int:
                              "terzaghi": [r["l2_terzaghi"] for r in reports],
                              "consistent": [r["l2_consistent"] for r in reports]}
     _print_reports(comm, reports, p)
-    if target is not None:
-        target["achieved_pct"] = workprecision.measure(summary)
-        met = target["achieved_pct"] <= p.target_error
+    if goal is not None:
+        goal["achieved_pct"] = workprecision.measure(summary)
+        met = goal["achieved_pct"] <= p.target_error
         PETSc.Sys.Print(f"Target error {p.target_error:g} %: this run reached "
-                        f"{target['achieved_pct']:.2f} % ({'met' if met else 'NOT met'})",
+                        f"{goal['achieved_pct']:.2f} % ({'met' if met else 'NOT met'})",
                         comm=comm)
     files["summary"] = summary_path
     files["fields_pvd"] = series.pvd
