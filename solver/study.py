@@ -34,8 +34,7 @@ class Run:
         return os.path.join(self.folder, "summary.json")
 
     def command(self):
-        cmd = [sys.executable, "-m", "solver", *self.args, "-mpm_output", self.folder,
-               "-mpm_progress", "0"]
+        cmd = [sys.executable, "-m", "solver", *self.args, "-mpm_output", self.folder]
         if self.ranks > 1:
             cmd = [shutil.which("mpirun") or "mpirun", "-n", str(self.ranks), *cmd]
         return cmd
