@@ -28,6 +28,7 @@ class Run:
     code: int = None
     seconds: float = 0.0
     stderr: str = ""
+    reused: bool = False
 
     @property
     def summary_path(self):
@@ -71,6 +72,7 @@ def execute(run: Run, log=print, fresh=False) -> Run:
     cached = None if fresh else _done(run)
     if cached:
         run.result, run.code, run.seconds = cached
+        run.reused = True
         log(f"  {run.name}: stored result (exit {run.code})")
         return run
     os.makedirs(run.folder, exist_ok=True)
