@@ -73,11 +73,19 @@ class Grid:
     # -- cells ---------------------------------------------------------------------------
     def owned_cells(self):
         """Indices (cx, cy) of the cells this rank owns, each of shape (nc,)."""
-        p = self.p
-        cx = np.arange(-(-self.xs // p), min(-(-self.xe // p), self.cells[0]))
-        cy = np.arange(-(-self.ys // p), min(-(-self.ye // p), self.cells[1]))
+        (x0, x1), (y0, y1) = self.owned_cell_range()
+        cx, cy = np.arange(x0, x1), np.arange(y0, y1)
         CX, CY = np.meshgrid(cx, cy, indexing="xy")
         return CX.ravel(), CY.ravel()
+
+    def owned_cell_range(self):
+        """The box of cells this rank owns: ((cx0, cx1), (cy0, cy1)), half open.
+
+        ``owned_cells`` lists the same cells; the partition cuts the lattice along cell
+        boundaries, so this rank's cells are exactly those of the box."""
+        p = self.p
+        return ((-(-self.xs // p), min(-(-self.xe // p), self.cells[0])),
+                (-(-self.ys // p), min(-(-self.ye // p), self.cells[1])))
 
     def cell_owner(self, cx, cy):
         """The rank that owns each cell (cx, cy): the owner of its lower-left node."""
