@@ -89,32 +89,36 @@ class TwoPhase:
         self.mpi = grid.comm.tompi4py()
         self.ng = grid.gxm * grid.gym
         self.nown = (grid.xe - grid.xs) * (grid.ye - grid.ys)
-        if self.serial:
-            # One rank: the ghosted local and the global node sets are the same (the grid is
-            # not periodic), so the nodal sums need no PETSc scatter.
-            assert self.ng == self.nown
-            self._locg = np.zeros((self.ng, NG))
-        else:
+        # One rank: the ghosted local and the global node sets are the same (the grid is not
+        # periodic), so the nodal sums need no PETSc scatter.
+        assert not self.serial or self.ng == self.nown
+        if not self.serial:
             self.da_f = grid.da.duplicate(dof=NF)
             self.da_g = grid.da.duplicate(dof=NG)
             self.loc_f, self.glob_f = self.da_f.createLocalVec(), self.da_f.createGlobalVec()
             self.loc_g, self.glob_g = self.da_g.createLocalVec(), self.da_g.createGlobalVec()
         self.fixed_s = grid.constrained_mask(bcs).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
-        self._fix_s = np.ascontiguousarray(self.fixed_s.T)      # (2, nown), field-major
-        self._fix_l = np.ascontiguousarray(self.fixed_l.T)
+        # 0 on the fixed DOFs of (a_s, a_l, v_s, v_l), 1 elsewhere: (NG, nown), field-major.
+        free = np.vstack([~self.fixed_s.T, ~self.fixed_l.T]).astype(float)
+        self._free = np.vstack([free, free])
         self.traction = self._traction(p.load)
+        # Nodal accelerations and velocities of the ghosted-local nodes, field-major.
+        self._locgT = np.zeros((NG, self.ng))
         # Geometry of the shape-function evaluation and of the node numbering.
-        self._h = np.array(grid.h)
-        self._scale = (2.0 / self._h).reshape(2, 1)             # d(xi, eta)/d(x, y), 1/m
-        self._cmax = np.array([grid.cells[0] - 1, grid.cells[1] - 1])
+        self._h2 = np.array(grid.h).reshape(2, 1)
+        self._scale = (2.0 / self._h2).reshape(2, 1)            # d(xi, eta)/d(x, y), 1/m
+        self._cmax2 = np.array([[grid.cells[0] - 1.0], [grid.cells[1] - 1.0]])
+        # Linear cells: dl/dxi = -+1/2, so dl/dx = -+1/h (exactly, a power-of-2 scaling).
+        self._dL = np.array([-0.5, 0.5]) * self._scale
         self._order = grid.p
         off = grid.offsets
         self._nen = len(off)
         # Ghosted-local node of local node a of cell (cx, cy): p cx + p gxm cy + offl[a].
         self._stride = np.array([grid.p, grid.p * grid.gxm], dtype=np.int64)
         self._offl = (off[:, 1] - grid.gys) * grid.gxm + (off[:, 0] - grid.gxs)
-        self._frow = np.arange(NF, dtype=np.int64)[:, None]
+        self._offl_min, self._offl_max = int(self._offl.min()), int(self._offl.max())
+        self._frow = np.arange(NF, dtype=np.int64)[:, None, None]
         # Partitioned directions and this rank's box of cells in cell units (+-inf at the
         # ends of the grid, where locate clips), for the cheap "does any point leave" test.
         (x0, x1), (y0, y1) = grid.owned_cell_range()
@@ -155,34 +159,33 @@ class TwoPhase:
          self.J) = pts.views("x", "volume", "vs", "vl", "stress", "p", "J")
         n, nen, k = pts.n_local, self._nen, self._order + 1
         self.n_local = n
-        # Per point, kept from points-to-grid for grid-to-points: rows N, dN/dx, dN/dy
-        # (1, 1/m, 1/m) and ghosted-local node numbers.
-        self.W = np.empty((n, 3, nen))
-        self.nodes = np.empty((n, nen), dtype=np.int64)
+        # Work arrays are field-major, (fields, ..., points): every NumPy operation then runs
+        # one long loop over the points (broadcasting over short trailing axes is several
+        # times slower per element).
+        # Kept from points-to-grid for grid-to-points: rows N, dN/dx, dN/dy (1, 1/m, 1/m)
+        # and the ghosted-local node numbers, (3, nen, n) and (nen, n).
+        self.W = np.empty((3, nen, n))
+        self.nodes = np.empty((nen, n), dtype=np.int64)
         m = max(1, min(n, CHUNK))
-        self._u = np.empty((m, 2))
-        self._ci = np.empty((m, 2), dtype=np.int64)
-        self._s = np.empty((m, 2))
-        self._Lv = np.empty((m, 2, k))        # 1D shape values per direction
-        self._Ld = np.empty((m, 2, k))        # and derivatives
-        self._A = np.empty((m, 3, k))         # rows (N, dN/dxi, dN/deta) = A_j B_i
-        self._B = np.empty((m, 3, k))
-        if k == 2:                            # linear: constant derivatives
-            self._Ld[:] = [-0.5, 0.5]
-            self._A[:, 2] = self._Ld[:, 1]
-            self._B[:, 1] = self._Ld[:, 0]
-        # Coefficients (NF x nr per point) of the points-to-grid product; the entries that
-        # are always zero stay zero.
-        self._K = np.zeros((m, NF, self.nr))
-        self._Wp = np.empty((m, self.nr, nen)) if self.hrz else None
-        self._C = np.empty(NF * m * nen)
-        self._idx = np.empty(NF * m * nen, dtype=np.int64)
+        self._c = np.empty((2, m))                 # cell indices, as floats
+        self._ci = np.empty((2, m), dtype=np.int64)
+        self._base = np.empty(m, dtype=np.int64)
+        self._Lv = np.empty((2, k, m))             # 1D shape values per direction
+        self._Ld = np.empty((2, k, m))             # and their derivatives
+        self._s = np.empty((2, m))                 # natural coordinates (quadratic cells)
+        self._w = np.empty((nen, m)) if self.hrz else None
+        self._Kw = np.empty((4, m))                # V v_s, V v_l
+        self._T = np.empty((4, m))                 # -(sigma' - p) V, row-major 2 x 2
+        self._C = np.empty(NF * nen * m)           # (NF, nen, m) per chunk
+        self._C2 = np.empty((2, nen, m))
+        self._idx = np.empty(NF * nen * m, dtype=np.int64)
         self._acc = None if n <= CHUNK else np.empty((NF, self.ng))
-        self._H = np.empty((m, nen, NG))
-        self._R = np.empty((m, 3, NG))
-        self._t3 = np.empty((m, 3))
-        self._t3b = np.empty((m, 3))
-        self._t2 = np.empty((m, 2))
+        self._H = np.empty(NG * nen * m)           # (NG, nen, m) per chunk
+        self._at = np.empty((NG, m))
+        self._Ls = np.empty((2, 2, m))
+        self._E = np.empty((3, m))
+        self._E2 = np.empty((3, m))
+        self._t2 = np.empty((2, m))
         self._t1 = np.empty(m)
         self._t1b = np.empty(m)
         self._t1c = np.empty(m)
@@ -205,8 +208,7 @@ class TwoPhase:
                 lo, span, part = self._p2g(s, min(s + CHUNK, n), False)
                 acc[:, lo:lo + span] += part.reshape(NF, span)
         if self.serial:
-            G, locg = acc, self._locg
-            O = locg.T
+            G, O = acc, self._locgT
         else:
             np.copyto(self.loc_f.getArray().reshape(self.ng, NF), acc.T)
             self.glob_f.zeroEntries()
@@ -219,112 +221,118 @@ class TwoPhase:
         self._nodal(G, O, dt, load_factor, damping)
         if not self.serial:
             self.da_g.globalToLocal(self.glob_g, self.loc_g)
-            locg = self.loc_g.getArray().reshape(-1, NG)
+            np.copyto(self._locgT, self.loc_g.getArray().reshape(-1, NG).T)
         self.ev_nodal.end()
 
         self.ev_g2p.begin()
         for s in range(0, n, CHUNK):
-            self._g2p(s, min(s + CHUNK, n), locg, dt, flip)
+            self._g2p(s, min(s + CHUNK, n), dt, flip)
         self.ev_g2p.end()
 
-    def _shape_rows(self, sn, W):
-        """Rows N, dN/dx, dN/dy (W, (m, 3, nen)) at natural coordinates sn (m, 2)."""
-        m = len(sn)
+    def _shape_rows(self, t, m, W):
+        """Rows N, dN/dx, dN/dy (W, (3, nen, m)) from the local coordinates t = (x - x_cell)
+        / h in [0, 1] (2, m) of the points in their cells."""
+        k = self._order + 1
         if self.grid.element == "q8":
-            N, dN = shapes.evaluate("q8", sn[:, 0], sn[:, 1])
-            W[:, 0] = N
-            W[:, 1:3] = dN.transpose(0, 2, 1)
-        else:
-            # Lagrange cells: N_a = l_i(xi) l_j(eta) for node a = (i, j), a = j (p + 1) + i,
-            # so each row is the outer product of a row of A (eta) and one of B (xi); the
-            # 1D polynomials as in shapes.lagrange1d.
-            Lv, Ld, A, B = self._Lv[:m], self._Ld[:m], self._A[:m], self._B[:m]
-            if self._order == 1:
-                np.subtract(1.0, sn, out=Lv[:, :, 0])          # (1 - s) / 2
-                np.add(1.0, sn, out=Lv[:, :, 1])               # (1 + s) / 2
-                Lv /= 2
-            else:
-                v0, v1, v2 = Lv[:, :, 0], Lv[:, :, 1], Lv[:, :, 2]
-                np.subtract(sn, 1.0, out=v0)                   # s (s - 1) / 2
-                v0 *= sn
-                np.multiply(sn, sn, out=v1)                    # 1 - s^2
-                np.subtract(1.0, v1, out=v1)
-                np.add(sn, 1.0, out=v2)                        # s (s + 1) / 2
-                v2 *= sn
-                Lv[:, :, 0::2] /= 2
-                np.subtract(sn, 0.5, out=Ld[:, :, 0])          # s - 1/2, -2 s, s + 1/2
-                np.multiply(sn, -2.0, out=Ld[:, :, 1])
-                np.add(sn, 0.5, out=Ld[:, :, 2])
-                np.copyto(A[:, 2], Ld[:, 1])
-                np.copyto(B[:, 1], Ld[:, 0])
-            np.copyto(A[:, 0:2], Lv[:, None, 1])
-            np.copyto(B[:, 0::2], Lv[:, None, 0])
-            k = self._order + 1
-            np.multiply(A[:, :, :, None], B[:, :, None, :], out=W.reshape(m, 3, k, k))
-        W[:, 1:3] *= self._scale
+            s = np.multiply(t, 2.0, out=self._s[:, :m])
+            s -= 1.0
+            N, dN = shapes.evaluate("q8", s[0], s[1])
+            W[0] = N.T
+            W[1:3] = dN.transpose(2, 1, 0)
+            W[1:3] *= self._scale[:, :, None]
+            return
+        # Lagrange cells: N_a = l_i(xi) l_j(eta) for node a = (i, j), a = j (p + 1) + i: each
+        # row is an outer product of 1D polynomials (as in shapes.lagrange1d) in x and y.
+        Lv, Ld = self._Lv[:, :, :m], self._Ld[:, :, :m]
+        Wn, Wx, Wy = (W[r].reshape(k, k, m) for r in range(3))
+        if k == 2:
+            # (1 - xi) / 2 = 1 - t, (1 + xi) / 2 = t; derivatives -+1/2 in xi, -+1/h in x.
+            np.subtract(1.0, Lv[:, 1], out=Lv[:, 0])
+            np.multiply(Lv[1][:, None], Lv[0][None, :], out=Wn)
+            np.multiply(Lv[1][:, None], self._dL[0][None, :, None], out=Wx)
+            np.multiply(self._dL[1][:, None, None], Lv[0][None, :], out=Wy)
+            return
+        s = np.multiply(t, 2.0, out=self._s[:, :m])
+        s -= 1.0
+        v0, v1, v2 = Lv[:, 0], Lv[:, 1], Lv[:, 2]
+        np.subtract(s, 1.0, out=v0)                   # s (s - 1) / 2
+        v0 *= s
+        np.multiply(s, s, out=v1)                     # 1 - s^2
+        np.subtract(1.0, v1, out=v1)
+        np.add(s, 1.0, out=v2)                        # s (s + 1) / 2
+        v2 *= s
+        Lv[:, 0::2] /= 2
+        np.subtract(s, 0.5, out=Ld[:, 0])             # s - 1/2, -2 s, s + 1/2
+        np.multiply(s, -2.0, out=Ld[:, 1])
+        np.add(s, 0.5, out=Ld[:, 2])
+        np.multiply(Lv[1][:, None], Lv[0][None, :], out=Wn)
+        np.multiply(Lv[1][:, None], Ld[0][None, :], out=Wx)
+        Wx *= self._scale[0, 0]
+        np.multiply(Ld[1][:, None], Lv[0][None, :], out=Wy)
+        Wy *= self._scale[1, 0]
 
     def _p2g(self, s, e, whole):
         """Points s:e to grid: (lo, span, sums), sums of the NF fields (field-major) over
         the ghosted-local nodes lo:lo+span (all of them when ``whole``)."""
-        m, nen, nr = e - s, self._nen, self.nr
-        x = self.x[s:e]
-        # Cells and natural coordinates, as Grid.locate (same operations, in place).
-        u, ci, sn = self._u[:m], self._ci[:m], self._s[:m]
-        np.divide(x, self._h, out=u)
-        np.floor(u, out=u)
-        np.copyto(ci, u, casting="unsafe")
-        np.clip(ci, 0, self._cmax, out=ci)
-        np.multiply(ci, self._h, out=sn)
-        np.subtract(x, sn, out=sn)
-        sn *= 2
-        sn /= self._h
-        sn -= 1
-        W, nodes = self.W[s:e], self.nodes[s:e]
-        self._shape_rows(sn, W)
-        np.add(np.dot(ci, self._stride)[:, None], self._offl, out=nodes)
+        m, nen = e - s, self._nen
+        # Cells as Grid.locate finds them (floor(x / h), clipped to the grid; a non-finite
+        # coordinate gives cell 0 there and here) and the local coordinates in them.
+        c, ci, Lv = self._c[:, :m], self._ci[:, :m], self._Lv[:, :, :m]
+        t = Lv[:, -1]
+        np.divide(self.x[s:e].T, self._h2, out=t)
+        np.floor(t, out=c)
+        np.fmax(c, 0.0, out=c)                  # fmax: NaN -> 0
+        np.fmin(c, self._cmax2, out=c)
+        t -= c
+        np.copyto(ci, c, casting="unsafe")
+        W, nodes = self.W[:, :, s:e], self.nodes[:, s:e]
+        self._shape_rows(t, m, W)
+        base = self._base[:m]
+        np.multiply(ci[0], self._stride[0], out=base)
+        base += ci[1] * self._stride[1]
+        np.add(base, self._offl[:, None], out=nodes)
 
-        # Coefficients: row w -> V, V v_s, V v_l (fields 0-4); rows dN/dx, dN/dy -> the
-        # forces -sigma_total V (fields 5, 6) and p V (fields 7, 8).
-        V, vs, vl, sig, pp = self.V[s:e], self.vs[s:e], self.vl[s:e], self.sig[s:e], \
-            self.pp[s:e]
-        K = self._K[:m]
-        Kf = K.reshape(m, NF * nr)
-        t1, t2 = self._t1[:m], self._t2[:m]
-        np.copyto(K[:, 0, 0], V)
-        np.multiply(vs, V[:, None], out=K[:, 1:3, 0])
-        np.multiply(vl, V[:, None], out=K[:, 3:5, 0])
-        np.subtract(pp[:, None], sig[:, 0:2], out=t2)                  # -(sigma' - p)
-        np.multiply(t2, V[:, None], out=Kf[:, 5 * nr + 1:6 * nr + 3:nr + 1])   # K[5,1], K[6,2]
-        np.multiply(sig[:, 2], V, out=t1)
-        np.negative(t1[:, None], out=Kf[:, 5 * nr + 2:6 * nr + 2:nr - 1])       # K[5,2], K[6,1]
-        np.multiply(pp, V, out=t1)
-        np.copyto(Kf[:, 7 * nr + 1:8 * nr + 3:nr + 1], t1[:, None])            # K[7,1], K[8,2]
-        if self.p.gravity:
-            # Body force of the mixture and of the liquid, distributed with N.
-            col = 3 if self.hrz else 0
-            g = self.gvec[1]
-            np.multiply(V, ((1 - self.n) * self.p.rho_s + self.n * self.p.rho_l) * g,
-                        out=K[:, 6, col])
-            np.multiply(V, self.p.rho_l * g, out=K[:, 8, col])
+        # Per point and node: w V, w V v_s, w V v_l (fields 0-4); the forces
+        # -(sigma' - p I) V grad N (fields 5, 6) and p V grad N (fields 7, 8).
+        V, pp, sig = self.V[s:e], self.pp[s:e], self.sig[s:e]
+        C = self._C[:NF * nen * m].reshape(NF, nen, m)
         if self.hrz:
-            Wp = self._Wp[:m]
-            Wp[:, 0] = assembly.lumping_weights(W[:, 0], self.lumping)
-            Wp[:, 1:3] = W[:, 1:3]
-            if nr == 4:
-                Wp[:, 3] = W[:, 0]
+            w = self._w[:, :m]
+            np.copyto(w, assembly.lumping_weights(W[0].T, self.lumping).T)
         else:
-            Wp = W
-        C = self._C[:NF * m * nen].reshape(NF, m, nen)
-        np.matmul(K, Wp, out=C.transpose(1, 0, 2))
+            w = W[0]
+        Kw, T, t1 = self._Kw[:, :m], self._T[:, :m], self._t1[:m]
+        np.multiply(self.vs[s:e].T, V, out=Kw[0:2])
+        np.multiply(self.vl[s:e].T, V, out=Kw[2:4])
+        np.multiply(w, V, out=C[0])
+        np.multiply(w, Kw[:, None], out=C[1:5])
+        np.subtract(pp, sig[:, 0:2].T, out=self._t2[:, :m])
+        np.multiply(self._t2[:, :m], V, out=T[0::3])           # -(s_xx - p) V, -(s_yy - p) V
+        np.multiply(sig[:, 2], V, out=t1)
+        np.negative(t1, out=T[1:3])                             # -s_xy V
+        T = T.reshape(2, 2, m)
+        np.multiply(W[1], T[:, 0, None], out=C[5:7])
+        C2 = self._C2[:, :, :m]
+        np.multiply(W[2], T[:, 1, None], out=C2)
+        C[5:7] += C2
+        np.multiply(pp, V, out=t1)
+        np.multiply(W[1:3], t1, out=C[7:9])
+        if self.p.gravity:
+            # Body forces of the mixture and of the liquid, distributed with N.
+            g = self.gvec[1]
+            np.multiply(V, ((1 - self.n) * self.p.rho_s + self.n * self.p.rho_l) * g, out=t1)
+            C[6] += np.multiply(W[0], t1, out=C2[0])
+            np.multiply(V, self.p.rho_l * g, out=t1)
+            C[8] += np.multiply(W[0], t1, out=C2[0])
         if whole:
             lo, span = 0, self.ng
         else:
             # Points are mostly sorted by cell (placed so, and they move little): the chunk
             # touches a narrow band of nodes, and the sums need only that band.
-            lo = int(nodes.min())
-            span = int(nodes.max()) - lo + 1
-        idx = self._idx[:NF * m * nen].reshape(NF, m * nen)
-        np.add(nodes.reshape(1, -1), self._frow * span - lo, out=idx)
+            lo = int(base.min()) + self._offl_min
+            span = int(base.max()) + self._offl_max - lo + 1
+        idx = self._idx[:NF * nen * m].reshape(NF, nen, m)
+        np.add(nodes, self._frow * span - lo, out=idx)
         return lo, span, np.bincount(idx.ravel(), weights=C.ravel(), minlength=NF * span)
 
     def _nodal(self, G, O, dt, load_factor, damping):
@@ -357,51 +365,52 @@ class TwoPhase:
         np.multiply(a_l, self.c_l * S, out=a_s)  # M_l a_l
         np.subtract(fm, a_s, out=a_s)
         a_s *= invS * (1.0 / self.c_s)           # / M_s
-        np.copyto(a_s, 0.0, where=self._fix_s)
-        np.copyto(vs_n, 0.0, where=self._fix_s)
-        np.copyto(a_l, 0.0, where=self._fix_l)
-        np.copyto(vl_n, 0.0, where=self._fix_l)
-        np.multiply(a_s, dt, out=O[4:6])
-        O[4:6] += vs_n
-        np.multiply(a_l, dt, out=O[6:8])
-        O[6:8] += vl_n
+        np.multiply(O[0:4], dt, out=O[4:8])
+        O[4:8] += vn                             # v^{k+1} = v^k + dt a^k
+        O *= self._free                          # fixed DOFs: a = 0 and v = 0
 
-    def _g2p(self, s, e, locg, dt, flip):
+    def _g2p(self, s, e, dt, flip):
         """Grid to points s:e: velocities, stress, pore pressure, positions, volume ratio."""
-        m = e - s
-        H, R = self._H[:m], self._R[:m]
-        locg.take(self.nodes[s:e], axis=0, out=H, mode="clip")   # (m, nen, NG)
-        np.matmul(self.W[s:e], H, out=R)          # rows N, dN/dx, dN/dy times the fields
-        Rf = R.reshape(m, 3 * NG)
-        vs, vl, x = self.vs[s:e], self.vl[s:e], self.x[s:e]
-        t1, t1b, t1c = self._t1[:m], self._t1b[:m], self._t1c[:m]
-        t2, t3 = self._t2[:m], self._t3[:m]
+        m, nen = e - s, self._nen
+        W = self.W[:, :, s:e]
+        H = self._H[:NG * nen * m].reshape(NG, nen, m)
+        np.take(self._locgT, self.nodes[:, s:e], axis=1, out=H, mode="clip")
+        nat = 6 if flip == 1.0 else 8
+        at = self._at[:nat, :m]
+        np.einsum("am,fam->fm", W[0], H[:nat], out=at)          # N-interpolated fields
+        Ls = self._Ls[:, :, :m]
+        np.einsum("iam,jam->ijm", H[4:6], W[1:3], out=Ls)       # grad v_s [i, j]
+        t1, t1b, t1c, t2 = self._t1[:m], self._t1b[:m], self._t1c[:m], self._t2[:, :m]
+        np.einsum("iam,iam->m", H[6:8], W[1:3], out=t1b)        # div v_l
+        vs, vl, x = self.vs[s:e].T, self.vl[s:e].T, self.x[s:e].T
         if flip == 1.0:
-            np.multiply(R[:, 0, 0:2], dt, out=t2)
-            vs += t2
-            np.multiply(R[:, 0, 2:4], dt, out=t2)
-            vl += t2
+            np.multiply(at[0:2], dt, out=t2)
+            np.add(vs, t2, out=vs)
+            np.multiply(at[2:4], dt, out=t2)
+            np.add(vl, t2, out=vl)
         else:
-            vs[:] = flip * (vs + dt * R[:, 0, 0:2]) + (1 - flip) * R[:, 0, 4:6]
-            vl[:] = flip * (vl + dt * R[:, 0, 2:4]) + (1 - flip) * R[:, 0, 6:8]
-        # grad v_s [i, j] = R[:, 1 + j, 4 + i]; div v_l = R[:, 1, 6] + R[:, 2, 7].
-        np.add(Rf[:, 12], Rf[:, 21], out=t1)                  # div v_s
-        np.copyto(t3[:, 0:2], Rf[:, 12:22:9])                 # eps_xx, eps_yy
-        np.add(Rf[:, 20], Rf[:, 13], out=t3[:, 2])            # gamma_xy
-        t3 *= dt
-        sig = self.sig[s:e]
-        sig += np.matmul(t3, self.DT, out=self._t3b[:m])      # d sigma' = D d eps
-        np.add(Rf[:, 14], Rf[:, 23], out=t1b)                 # div v_l
+            vs[:] = flip * (vs + dt * at[0:2]) + (1 - flip) * at[4:6]
+            vl[:] = flip * (vl + dt * at[2:4]) + (1 - flip) * at[6:8]
+        Lf = Ls.reshape(4, m)
+        E = self._E[:, :m]
+        np.copyto(E[0:2], Lf[0::3])                  # eps_xx, eps_yy
+        np.add(Lf[1], Lf[2], out=E[2])               # gamma_xy
+        np.add(Lf[0], Lf[3], out=t1)                 # div v_s
+        E *= dt
+        sig = self.sig[s:e].T
+        np.add(sig, np.matmul(self.D, E, out=self._E2[:, :m]), out=sig)   # D d eps
         t1b *= self.n
         np.multiply(t1, 1 - self.n, out=t1c)
         t1c += t1b
         t1c *= dt * self.p.K_l / self.n
-        self.pp[s:e] -= t1c                                    # eqs. 8-9
-        np.multiply(R[:, 0, 4:6], dt, out=t2)
-        x += t2
+        pp = self.pp[s:e]
+        pp -= t1c                                    # eqs. 8-9
+        np.multiply(at[4:6], dt, out=t2)
+        np.add(x, t2, out=x)
         t1 *= dt
         t1 += 1
-        self.J[s:e] *= t1          # volume ratio of the solid, to catch inversion
+        J = self.J[s:e]
+        J *= t1                  # volume ratio of the solid, to catch inversion
 
     def check(self, step: int, t: float, scale: float):
         """Stop (NumericalError, on every rank) on non-finite values, unbounded pore pressure,
