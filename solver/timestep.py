@@ -155,13 +155,20 @@ def _spectral_radius(ops, flip, dt):
     return float(np.max(np.abs(np.linalg.eigvals(T))))
 
 
+# Zero-energy (hourglass) modes, e.g. of Q4 cells with one point each, give eigenvalue 1 in
+# Jordan blocks, which dense eigensolvers return as 1 + O(sqrt(eps)): linear, not exponential
+# growth, and no instability. Just above a true limit the spectral radius exceeds 1 by far
+# more than this.
+RADIUS_TOL = 1e-6
+
+
 def _bisect_limit(ops, flip, guess, rtol=1e-4):
     lo, hi = guess / 64, guess * 4
-    while _spectral_radius(ops, flip, hi) <= 1 + 1e-10:
+    while _spectral_radius(ops, flip, hi) <= 1 + RADIUS_TOL:
         lo, hi = hi, hi * 4
     while hi / lo > 1 + rtol:
         mid = np.sqrt(lo * hi)
-        if _spectral_radius(ops, flip, mid) <= 1 + 1e-10:
+        if _spectral_radius(ops, flip, mid) <= 1 + RADIUS_TOL:
             lo = mid
         else:
             hi = mid

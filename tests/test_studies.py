@@ -134,3 +134,18 @@ def test_stability_map_brackets_the_discrete_limit(tmp_path):
         assert res["measured_s"][d]["consistent"]
     assert (tmp_path / "stability-map.png").stat().st_size > 10000
     assert "M1-Q4" in (tmp_path / "stability-map.md").read_text()
+
+
+def test_one_point_per_q4_cell_runs_at_the_drag_limit(cli):
+    """One point per Q4 cell leaves zero-energy modes: the consistent mass is singular (no
+    f1, no oscillator criterion) and the linearised step has unit eigenvalues in Jordan
+    blocks, which must not pass for an instability; the run is stable at 0.99 x the
+    discrete limit, which the drag sets as for 2 x 2 points."""
+    s = check_ok(cli(["-mpm_ppc", "1"] + SHORT, options_file="consolidation-m1-q4"))
+    lim = s["dt_critical"]
+    assert "oscillator" not in lim and s["f1_hz"] is None
+    assert lim["discrete"] == pytest.approx(lim["drag"], rel=0.01)
+    res = cli(["-mpm_ppc", "1", "-mpm_damping", "0", "-mpm_stability_analysis", "0",
+               "-mpm_dt", repr(0.99 * lim["discrete"])] + SHORT,
+              options_file="consolidation-m1-q4")
+    assert check_ok(res)["stable"] is True
