@@ -1,5 +1,6 @@
 """The generalized Jacobi solver (solver.jacobi) on its own: random SPD pencils against numpy,
-eq. (3) rotations, the round-robin ordering, failures, and the same checks under MPI.
+eq. (3) rotations, the round-robin ordering, the blocked method (block sizes, orderings, every
+pair once per sweep), failures, and the same checks under MPI.
 
 Run as a script (``mpirun -n N python tests/test_eigen_jacobi.py CHECK FOLDER``) it performs
 one of the MPI checks below and writes FOLDER/rank-R.txt per rank; the tests start it through
@@ -67,15 +68,15 @@ def gather_vectors(vectors):
     return np.array(out)
 
 
-def check_pencil(n, seed, nmodes=None):
-    """Solve a random pencil; return (max rel eigenvalue error, orthonormality error,
-    max relative residual, sweeps)."""
+def check_pencil(n, seed, nmodes=None, block=None):
+    """Solve a random pencil (``block``: the Jacobi block sizes, None: automatic); return
+    (max rel eigenvalue error, orthonormality error, max relative residual, sweeps)."""
     from solver import jacobi
 
     Kd, Md = random_pencil(n, seed)
     K, M = petsc_mat(Kd), petsc_mat(Md)
     nmodes = n if nmodes is None else nmodes
-    res = jacobi.solve(K, M, nmodes, tol=1e-15, max_sweeps=50)
+    res = jacobi.solve(K, M, nmodes, tol=1e-15, max_sweeps=50, block=block)
     ref = reference_eigenvalues(Kd, Md)
     eig_err = float(np.max(np.abs(res.eigenvalues - ref) / np.abs(ref)))
     Phi = gather_vectors(res.vectors).T          # (n, nmodes)
@@ -256,6 +257,124 @@ def test_singular_mass_with_positive_diagonal_raises_numerical_error():
         jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 2, max_sweeps=30)
 
 
+# -- the blocked method -------------------------------------------------------------------
+@pytest.mark.parametrize("n, block, seed", [
+    (37, (4, 1), 1),              # padded to 40: two decoupled dummy indices
+    (64, (8, 1), 2),
+    (64, (32, 8, 2, 1), 3),       # a single block pair: only the round-0 sweep of the pair
+    (100, (16, 4, 1), 4),         # padded to 128
+    (101, (8, 2, 1), 5),
+    (150, (15, 5, 1), 6),         # block sizes that are no powers of 2
+    (250, None, 7),               # chosen automatically
+])
+def test_blocked_random_spd_pencil(n, block, seed):
+    """The blocked method against numpy: every eigenvalue, M-orthonormal modes, residuals."""
+    eig_err, orth, resid, sweeps = check_pencil(n, seed, nmodes=min(n, 12), block=block)
+    assert eig_err <= RTOL
+    assert orth <= RTOL
+    assert resid <= RTOL
+    assert 1 <= sweeps <= 20
+
+
+def test_blocked_and_scalar_agree():
+    """The same pencil by the scalar method (block 1) and by blocks: same eigenvalues and
+    modes, and the blocked sweep count within one of the scalar one (both rotate every pair
+    once per sweep, in different orders)."""
+    from solver import jacobi
+
+    Kd, Md = random_pencil(96, 8)
+    scalar = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 6, block=1)
+    blocked = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 6, block=(16, 4, 1))
+    np.testing.assert_allclose(blocked.eigenvalues, scalar.eigenvalues, rtol=1e-12)
+    for a, b in zip(gather_vectors(scalar.vectors), gather_vectors(blocked.vectors)):
+        assert abs(abs(a @ Md @ b) - 1) <= 1e-10          # the same mode up to its sign
+    assert abs(blocked.sweeps - scalar.sweeps) <= 1
+
+
+def test_block_sizes_choice():
+    from solver import jacobi
+
+    for n in (1, 2, 20, 60, 80, jacobi.BLOCKED_MIN_DOFS - 1):
+        assert jacobi.block_sizes(n) == (1,), n          # the paper's models stay scalar
+    for n in (jacobi.BLOCKED_MIN_DOFS, 150, 480, 1000, 1001, 2000, 3000, 6000):
+        for ranks in (1, 2, 3):
+            sizes = jacobi.block_sizes(n, ranks)
+            assert sizes[-1] == 1 and len(sizes) >= 2, (n, sizes)
+            assert all(a % b == 0 and a > b for a, b in zip(sizes, sizes[1:])), sizes
+            nblk = -(-n // sizes[0])
+            nblk += nblk % 2
+            assert nblk >= 2 * ranks                      # every rank owns a block pair
+            assert nblk * sizes[0] - n < 2 * sizes[0]     # padding below one block pair
+
+
+@pytest.mark.parametrize("nb", [1, 2, 3, 4, 5, 8])
+def test_tournament_moves_are_the_tournament(nb):
+    """Writing pair q's blocks through _tournament_moves lands them where tournament() puts
+    them for the next round."""
+    from solver import jacobi
+
+    src = jacobi.tournament(2 * nb)
+    label = np.arange(2 * nb)
+    moved = np.full(2 * nb, -1)
+    for pairs, half, to in jacobi._tournament_moves(nb):
+        moved[to] = label[2 * np.arange(nb)[pairs] + half]
+    np.testing.assert_array_equal(moved, label[src])
+
+
+def _pairs_of_level(labels, sizes, cross, seen):
+    """Follow the labels of one problem through a blocked sweep (as jacobi._level moves
+    them), recording each scalar pair rotated; returns the labels in their final slots."""
+    from solver import jacobi
+
+    N, s = len(labels), sizes[0]
+    plan = jacobi._plan(N, s, cross)
+    if plan.order is not None:
+        labels = labels[plan.order]
+    for r, (se, _, _, _) in enumerate(plan.rounds):
+        pairs = labels.reshape(plan.p, plan.m)
+        if s == 1:
+            seen.extend(tuple(sorted(p)) for p in pairs.tolist())
+        else:
+            pairs = np.array([_pairs_of_level(q, sizes[1:], cross or r > 0, seen)
+                              for q in pairs])
+        labels = pairs.ravel()[se]
+    return labels
+
+
+@pytest.mark.parametrize("N, sizes, cross", [
+    (8, (1,), False), (8, (1,), True), (16, (4, 1), False), (16, (4, 1), True),
+    (64, (8, 2, 1), False), (60, (10, 5, 1), True), (96, (12, 3, 1), False),
+])
+def test_level_rotates_every_pair_once(N, sizes, cross):
+    """One sweep of a level rotates every pair exactly once (cross: every pair between the
+    two halves) and returns every index to its slot."""
+    seen = []
+    out = _pairs_of_level(np.arange(N), sizes, cross, seen)
+    np.testing.assert_array_equal(out, np.arange(N))
+    if cross:
+        want = {(i, j) for i in range(N // 2) for j in range(N // 2, N)}
+    else:
+        want = {(i, j) for i in range(N) for j in range(i + 1, N)}
+    assert len(seen) == len(want) and set(seen) == want
+
+
+def test_fast_rotations_match_rotation_parameters():
+    """The blocked method's batched formulas give eq. (3)'s alpha, gamma (special cases
+    included)."""
+    from solver import jacobi
+
+    pairs = [random_pencil(2, 3000 + t) for t in range(200)]
+    Mp = random_pencil(2, 99)[1]
+    pairs += [(3.7 * Mp, Mp), (np.diag([2.0, 4.0]), np.diag([1.0, 2.0])),
+              (np.array([[2.0, 0.3], [0.3, 2.0]]), np.array([[1.0, 0.4], [0.4, 1.0]]))]
+    e = np.array([[K[0, 0], K[1, 1], K[0, 1], M[0, 0], M[1, 1], M[0, 1]] for K, M in pairs]).T
+    out = np.ones((len(pairs), 2, 2))
+    jacobi._rotations(e, out)
+    a, g = jacobi.rotation_parameters(*e)
+    np.testing.assert_allclose(out[:, 1, 0], a, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(out[:, 0, 1], g, rtol=1e-12, atol=1e-15)
+
+
 # -- under MPI ------------------------------------------------------------------------------
 def _run_script(ranks, check, tmp_path, timeout=60):
     """Run this file as an MPI script; returns (exit code, stdout, stderr, {rank: words})
@@ -270,6 +389,17 @@ def _run_script(ranks, check, tmp_path, timeout=60):
         if f.is_file():
             lines[r] = f.read_text().split()
     return code, out, err, lines
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_blocked_pencil_under_mpi(ranks, tmp_path):
+    """The blocked method with block pairs spread over the ranks (block rows that travel
+    between ranks after every round): same accuracy as on one rank."""
+    code, out, err, lines = _run_script(ranks, "blocked", tmp_path)
+    assert code == 0, out + err[-3000:]
+    assert sorted(lines) == list(range(ranks)), out + err[-3000:]
+    for rank, words in lines.items():
+        assert words[0] == "OK", (rank, words, out, err[-3000:])
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
@@ -316,6 +446,11 @@ def _mpi_main(check, folder):
         if check == "pencil":
             for n, seed in ((37, 1), (60, 2), (11, 3)):
                 eig_err, orth, resid, _ = check_pencil(n, seed)
+                if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
+                    status = f"FAIL n={n} eig={eig_err:.2e} orth={orth:.2e} res={resid:.2e}"
+        elif check == "blocked":
+            for n, block, seed in ((101, (8, 2, 1), 5), (96, (16, 4, 1), 6), (150, None, 7)):
+                eig_err, orth, resid, _ = check_pencil(n, seed, nmodes=10, block=block)
                 if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
                     status = f"FAIL n={n} eig={eig_err:.2e} orth={orth:.2e} res={resid:.2e}"
         elif check == "indefinite":
