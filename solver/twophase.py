@@ -179,6 +179,7 @@ class TwoPhase:
         self._C = np.empty(NF * nen * m)           # (NF, nen, m) per chunk
         self._C2 = np.empty((2, nen, m))
         self._idx = np.empty(NF * nen * m, dtype=np.int64)
+        self._idx_cells = None                     # cells the kept index was built for
         self._acc = None if n <= CHUNK else np.empty((NF, self.ng))
         self._H = np.empty(NG * nen * m)           # (NG, nen, m) per chunk
         self._at = np.empty((NG, m))
@@ -287,10 +288,14 @@ class TwoPhase:
         np.copyto(ci, c, casting="unsafe")
         W, nodes = self.W[:, :, s:e], self.nodes[:, s:e]
         self._shape_rows(t, m, W)
-        base = self._base[:m]
-        np.multiply(ci[0], self._stride[0], out=base)
-        base += ci[1] * self._stride[1]
-        np.add(base, self._offl[:, None], out=nodes)
+        # One pass over all points (a small model): node numbers and the bincount index only
+        # change when a point changes cell, which is rare; otherwise keep them.
+        same = whole and self._idx_cells is not None and (ci == self._idx_cells).all()
+        if not same:
+            base = self._base[:m]
+            np.multiply(ci[0], self._stride[0], out=base)
+            base += ci[1] * self._stride[1]
+            np.add(base, self._offl[:, None], out=nodes)
 
         # Per point and node: w V, w V v_s, w V v_l (fields 0-4); the forces
         # -(sigma' - p I) V grad N (fields 5, 6) and p V grad N (fields 7, 8).
@@ -324,15 +329,18 @@ class TwoPhase:
             C[6] += np.multiply(W[0], t1, out=C2[0])
             np.multiply(V, self.p.rho_l * g, out=t1)
             C[8] += np.multiply(W[0], t1, out=C2[0])
+        idx = self._idx[:NF * nen * m].reshape(NF, nen, m)
         if whole:
             lo, span = 0, self.ng
+            if not same:
+                np.add(nodes, self._frow * span, out=idx)
+                self._idx_cells = ci.copy()
         else:
             # Points are mostly sorted by cell (placed so, and they move little): the chunk
             # touches a narrow band of nodes, and the sums need only that band.
             lo = int(base.min()) + self._offl_min
             span = int(base.max()) + self._offl_max - lo + 1
-        idx = self._idx[:NF * nen * m].reshape(NF, nen, m)
-        np.add(nodes, self._frow * span - lo, out=idx)
+            np.add(nodes, self._frow * span - lo, out=idx)
         return lo, span, np.bincount(idx.ravel(), weights=C.ravel(), minlength=NF * span)
 
     def _nodal(self, G, O, dt, load_factor, damping):

@@ -127,6 +127,13 @@ def test_step_matches_reference(opts):
     model = twophase.TwoPhase(grid, points, p, bcs, lumping)
     dt = 1e-6
     for k in range(3):
+        if k == 2:
+            # Some points jump into the next cell up between steps (kept node numbers and
+            # bincount index must follow).
+            with points.fields("x") as x:
+                move = np.arange(len(x)) % 5 == 0
+                x[move, 1] = np.minimum(x[move, 1] + grid.h[1], p.size[1] - 1e-9)
+                ref["x"][:] = x
         ramp = 0.5 + 0.25 * k
         model.step(dt, ramp, p.damping, p.flip)
         model.migrate_if_needed((0, 0))
