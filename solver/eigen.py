@@ -27,6 +27,54 @@ PAPER_TABLE3 = {"q4": [16.92, 51.27, 87.24, 126.03, 168.95],
 PAPER_ABAQUS_CPE8 = [16.89, 50.68, 84.49, 118.37, 152.42]
 
 
+# Relative residual of a Jacobi mode above which the run prints a warning (a converged run
+# at the paper's tolerance reaches 1e-13 to 1e-9, set by rounding and the spread of K).
+RESIDUAL_WARNING = 1e-6
+# SLEPc-only runs check the mass (densely, on rank 0) up to this size; Jacobi runs always do.
+MASS_CHECK_MAX_DOFS = 5000
+NODES_PER_CELL = {"q4": 4, "q8": 8, "q9": 9}
+# A mode below this fraction of the rod's first frequency counts as a zero-energy mode.
+ZERO_HZ = 1e-3
+
+
+def _points(ppc) -> str:
+    return f"{ppc} x {ppc} point{'s' if ppc > 1 else ''} per cell"
+
+
+def _points_needed(element) -> int:
+    """Points per cell per direction that give a cell at least as many points as nodes."""
+    return int(np.ceil(np.sqrt(NODES_PER_CELL[element])))
+
+
+def mass_diagnosis(p, exc) -> str:
+    """One line naming why the consistent mass of scene ``p`` is not positive definite."""
+    what = {"singular": f"singular (numerical rank {exc.rank} of {exc.n})",
+            "indefinite": f"indefinite ({exc.negative} negative eigenvalues of {exc.n})",
+            "diagonal": f"zero on {exc.n - exc.rank} diagonal entries"}[exc.kind]
+    nen, need = NODES_PER_CELL[p.element], _points_needed(p.element)
+    if p.ppc < need:
+        return (f"Jacobi: {p.element.upper()} with {_points(p.ppc)} (fewer "
+                f"than its {nen} nodes): the consistent mass is {what}; use -mpm_ppc {need} "
+                "or more")
+    return (f"Jacobi: the consistent mass of {p.element.upper()} with {_points(p.ppc)} is "
+            f"{what}; check -mpm_ppc and -mpm_points")
+
+
+def zero_energy_diagnosis(p, freq, rod):
+    """None, or a warning about modes at (about) 0 Hz; an error (NumericalError) when they
+    are hourglass modes of too few points per cell, whose frequencies would be wrong."""
+    zero = max((int(np.count_nonzero(f < ZERO_HZ * rod[0])) for f in freq.values()), default=0)
+    if not zero:
+        return None
+    if p.ppc < _points_needed(p.element):
+        raise NumericalError(
+            f"{p.element.upper()} with {_points(p.ppc)}: {zero} zero-energy "
+            f"(hourglass) modes at 0 Hz among the lowest {p.nmodes}: the stiffness is "
+            f"singular; use -mpm_ppc {_points_needed(p.element)} or more")
+    return (f"{zero} of the lowest {p.nmodes} modes at about 0 Hz: zero-energy modes, "
+            "rigid-body motion that the boundary conditions (-mpm_bc_*) leave free")
+
+
 def mixture_density(p) -> float:
     """Saturated density (1 - n) rho_s + n rho_l (kg/m3)."""
     return (1 - p.porosity) * p.rho_s + p.porosity * p.rho_l
@@ -130,16 +178,40 @@ def run(p, comm) -> dict:
                                    "size_m": list(p.size), "ppc": p.ppc, "points": p.points,
                                    "n_points": points.n_global,
                                    "density_kg_m3": mixture_density(p)}
+    E_c = assembly.constrained_modulus(p.E, p.nu)
+    rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
+    warnings = []
     if "jacobi" in p.eigen_solver:
         stage = PETSc.Log.Stage("Jacobi")
         stage.push()
-        res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
+        try:
+            res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
+        except jacobi.MassError as exc:
+            raise NumericalError(mass_diagnosis(p, exc)) from None
         stage.pop()
         freq["jacobi"], vecs["jacobi"] = frequencies(res.eigenvalues[:p.nmodes]), res.vectors
+        # Modes at about 0 Hz (rigid-body motion) have no meaningful relative residual;
+        # zero_energy_diagnosis below reports them.
+        finite = freq["jacobi"] >= ZERO_HZ * rod[0]
+        worst = float(np.max(res.residual[finite], initial=0.0))
         summary["jacobi"] = {"sweeps": res.sweeps, "seconds": res.seconds, "tol": p.jacobi_tol,
-                             "coupling": res.coupling, "eigenvalue_change": res.change}
+                             "coupling": res.coupling, "eigenvalue_change": res.change,
+                             "residual": res.residual, "block_sizes": list(res.block)}
         PETSc.Sys.Print(f"Jacobi: {res.sweeps} sweeps to tolerance {p.jacobi_tol:.0e}, "
-                        f"{res.seconds:.3f} s", comm=comm)
+                        f"{res.seconds:.3f} s, largest relative residual {worst:.1e}", comm=comm)
+        if worst > RESIDUAL_WARNING:
+            warnings.append(
+                f"Jacobi: relative residuals up to {worst:.1e} in the reported modes at "
+                f"-mpm_jacobi_tol {p.jacobi_tol:.0e}: mode shapes good to about {worst:.0e}, "
+                f"frequencies to about {min(worst, worst ** 2 * 10):.0e} (relative); a "
+                "smaller -mpm_jacobi_tol (the paper's 1e-15) costs a few more sweeps")
+    elif n <= MASS_CHECK_MAX_DOFS:
+        # SLEPc's B-inner product needs M positive definite as much as Jacobi does: with a
+        # singular M it may return modes at 0 Hz that are no eigenpairs (1 point per Q4 cell).
+        try:
+            jacobi.check_mass(M)
+        except jacobi.MassError as exc:
+            raise NumericalError(mass_diagnosis(p, exc).replace("Jacobi: ", "", 1)) from None
     if "slepc" in p.eigen_solver:
         stage = PETSc.Log.Stage("SLEPc")
         stage.push()
@@ -148,6 +220,12 @@ def run(p, comm) -> dict:
         freq["slepc"], vecs["slepc"] = frequencies(values), vectors
         summary["slepc"] = {"seconds": seconds}
         PETSc.Sys.Print(f"SLEPc Krylov-Schur: {seconds:.3f} s", comm=comm)
+    zero = zero_energy_diagnosis(p, freq, rod)
+    if zero:
+        warnings.append(zero)
+    for text in warnings:
+        PETSc.Sys.Print("WARNING: " + text, comm=comm)
+    summary["warnings"] = warnings
     summary["frequencies_hz"] = {k: v for k, v in freq.items()}
 
     if len(freq) == 2:
@@ -156,8 +234,6 @@ def run(p, comm) -> dict:
         summary["cross_check"] = {"relative_eigenvalue_difference": rel, "mac": macs}
 
     # References: the 1D rod and the plain FE model (Gauss points) of the same mesh.
-    E_c = assembly.constrained_modulus(p.E, p.nu)
-    rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
     fe_ppc = 2 if p.element == "q4" else 3
     _, _, Kg, Mg, _ = build(comm, p, placement="gauss", ppc=fe_ppc)
     fe = frequencies(slepc_solve(Kg, Mg, p.nmodes)[0])
