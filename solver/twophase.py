@@ -9,9 +9,9 @@ One step, with every nodal quantity lumped (a diagonal):
    M~_l = rho_l S and the drag Q = (n mu_l / kappa_l) S (eq. 12); likewise the momenta are
    (1 - n) rho_s sum w V v_s and n rho_l sum w V v_l. Nine nodal fields are summed: S,
    sum w V v_s (2), sum w V v_l (2), the mixture force f_m = f_ext - sum B^T sigma V (2) and
-   the liquid force f_l = sum p grad(N) V (2) (+ gravity). Per point they are one small
-   product [w, dN/dx, dN/dy] x (coefficients), summed over the nodes by one np.bincount and,
-   over the ranks, by one localToGlobal(ADD) of a ghosted 9-field Vec.
+   the liquid force f_l = sum p grad(N) V (2) (+ gravity). Per point and node they are
+   w, dN/dx or dN/dy times per-point coefficients, summed over the nodes by one np.bincount
+   and, over the ranks, by one localToGlobal(ADD) of a ghosted 9-field Vec.
 2. Nodal accelerations (eqs. 13, 14), pointwise: a_l = (f_l - Q (v_l - v_s)) / M~_l,
    a_s = (f_m - M_l a_l) / M_s; optional local damping; fixed DOFs held; then
    v^{k+1} = v^k + dt a^k (eq. 6).
@@ -71,7 +71,6 @@ class TwoPhase:
         self.grid, self.points, self.p = grid, points, p
         self.lumping = lumping
         self.D = assembly.elasticity(p.E, p.nu)
-        self.DT = np.ascontiguousarray(self.D.T)
         self.gvec = np.array([0.0, -p.gravity])
         n = p.porosity
         self.n = n
@@ -81,10 +80,8 @@ class TwoPhase:
         self.c_l = n * p.rho_l                              # M_l / S
         self.c_t = p.rho_l                                  # M~_l / S
         self.c_q = self.drag                                # Q / S, kg/m3/s
-        # Weight rows of the points-to-grid product: w, dN/dx, dN/dy, and N where the
-        # lumping weights differ from N and gravity needs N (HRZ).
+        # Lumping weights other than N (HRZ) are computed per step from N.
         self.hrz = lumping != "rowsum"
-        self.nr = 4 if (self.hrz and p.gravity) else 3
         self.serial = grid.comm.getSize() == 1
         self.mpi = grid.comm.tompi4py()
         self.ng = grid.gxm * grid.gym
@@ -276,8 +273,9 @@ class TwoPhase:
         """Points s:e to grid: (lo, span, sums), sums of the NF fields (field-major) over
         the ghosted-local nodes lo:lo+span (all of them when ``whole``)."""
         m, nen = e - s, self._nen
-        # Cells as Grid.locate finds them (floor(x / h), clipped to the grid; a non-finite
-        # coordinate gives cell 0 there and here) and the local coordinates in them.
+        # Cells as Grid.locate finds them (floor(x / h), clipped to the grid; NaN gives cell
+        # 0 there and here) and the local coordinates t = x / h - cell in them (the natural
+        # coordinates are 2 t - 1).
         c, ci, Lv = self._c[:, :m], self._ci[:, :m], self._Lv[:, :, :m]
         t = Lv[:, -1]
         np.divide(self.x[s:e].T, self._h2, out=t)
