@@ -28,12 +28,15 @@ only the pairs between them, so a sweep still rotates every pair (i, j) exactly 
 cyclic Jacobi sweep in another order, with the same convergence test (eq. 4) on the whole
 matrices after it. The pair problems' own results (exact zeros where a rotation zeroed an
 entry) replace their diagonal blocks after the products, as the scalar method stores its
-zeros. The new basis vectors are scaled to unit modal mass after each round.
+zeros. The new basis vectors are scaled to unit modal mass after each round. On one rank the
+next round's pair problems are swept in a second thread while the current round's products
+run (see :func:`_next_problems`); on several, each rank sweeps its own pairs.
 """
 
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -536,67 +539,157 @@ def _solve_blocked(K, M, nmodes, tol, max_sweeps, sizes, t0):
     src = tournament(nblk)
     se = _elements(src, B)
     dest = np.argsort(src)               # the block slot each block moves to
-    kk = np.arange(npl)
     moves = _tournament_moves(nb)
     alone = slots.mpi.Get_size() == 1
     Y = np.empty((nloc, 2, n2))
     Z = np.empty((nloc, 3, n2))
-    for sweep in range(1, max_sweeps + 1):
-        for rnd in range(nblk - 1):
-            # The pair problems of this rank: its rows, the columns of its own pairs.
-            sub = W.reshape(npl, m, 3, nb, m)[:, :, :2, q0:q0 + npl, :]
-            sub = np.ascontiguousarray(np.diagonal(sub, axis1=0, axis2=3).transpose(3, 0, 1, 2))
-            # Round 0 of a sweep also sweeps the pairs inside each block; later rounds only
-            # the pairs between the two blocks of a pair (each pair once per sweep).
-            sub_out, Tt = _level(sub, sizes[1:], rnd > 0)
-            d = np.diagonal(sub_out[:, :, 1, :], axis1=1, axis2=2)
-            if _any(slots, np.any(~(d > 0))):
-                raise NumericalError(
-                    f"Jacobi: the mass matrix is singular or indefinite (a transformed M_ii "
-                    f"<= 0 in sweep {sweep}); check for empty cells or too few points per cell")
-            # Scale the new basis vectors to unit modal mass: keeps M near I, K near Lambda.
-            scale = 1.0 / np.sqrt(d)
-            Tt *= scale[:, :, None]
-            sub_out *= scale[:, :, None, None] * scale[:, None, None, :]
-            # Rows: T^T [K; M; Phi^T] for this rank's pairs. On one rank they are written
-            # straight to the rows the tournament moves them to; on several, moved after.
-            T = slots.allgather_pairs(Tt).transpose(0, 2, 1)
-            Xr = W.reshape(npl, m, 3 * n2)
-            if alone:
-                for pairs, h, to in moves:
-                    np.matmul(Tt[pairs, h * B:(h + 1) * B], Xr[pairs, :, :2 * n2],
-                              out=Y.reshape(nblk, B, 2 * n2)[to])
-                    np.matmul(Tt[pairs, h * B:(h + 1) * B], Xr[pairs, :, 2 * n2:],
-                              out=Z.reshape(nblk, B, 3 * n2)[to, :, 2 * n2:])
-                rowblk = dest[2 * kk[:, None] + np.arange(2)]
-            else:
-                np.matmul(Tt, Xr[:, :, :2 * n2], out=Y.reshape(npl, m, 2 * n2))
-                np.matmul(Tt, Xr[:, :, 2 * n2:], out=Z.reshape(npl, m, 3 * n2)[:, :, 2 * n2:])
-                rowblk = 2 * kk[:, None] + np.arange(2)
-            # Columns: K T and M T with every rank's T, written to the next round's columns.
-            for a in (0, 1):
-                Xc = Y[:, a].reshape(nloc, nb, m).transpose(1, 0, 2)
-                out = Z[:, a].reshape(nloc, nblk, B).transpose(1, 0, 2)
-                for pairs, h, to in moves:
-                    np.matmul(Xc[pairs], T[pairs, :, h * B:(h + 1) * B], out=out[to])
-            # The pair problems' own results (exact zeros where they rotated), where the
-            # tournament moves the pairs' rows and columns.
-            Z6 = Z.reshape(nloc // B, B, 3, nblk, B)
-            colblk = dest[2 * (q0 + kk[:, None]) + np.arange(2)]
-            for h1 in (0, 1):
-                for h2 in (0, 1):
-                    Z6[rowblk[:, h1], :, :2, colblk[:, h2], :] = \
-                        sub_out[:, h1 * B:(h1 + 1) * B, :, h2 * B:(h2 + 1) * B]
-            W, Z = (Z, W) if alone else (slots.permute(Z.reshape(nloc // B, B * 3 * n2))
-                                          .reshape(nloc, 3, n2), Z)
-            index = index[se]
-        coupling, change, lam_old, mdiag = _convergence(slots, W, index[mine], n, n2, lam_old)
-        if coupling <= tol and change <= tol:
-            break
-    else:
-        raise _not_converged(max_sweeps, coupling, change, tol, n)
+    # On one rank the pair problems of the next round are swept in a second thread while
+    # this one applies the current round's products (BLAS, which releases the interpreter):
+    # the Python-bound sweeps of the small problems then overlap the matrix products.
+    pool = ThreadPoolExecutor(max_workers=1) if alone and nb >= 2 else None
+    pending = None
+    # Leave the worker thread (or the other ranks of this node) their cores: BLAS threads
+    # beyond the free cores only wait for each other (measured 20 % slower at n = 1000).
+    blas = _BlasThreads(slots.mpi, pool is not None)
+    try:
+        for sweep in range(1, max_sweeps + 1):
+            for rnd in range(nblk - 1):
+                if pending is not None:
+                    sub_out, Tt = pending.result()
+                    pending = None
+                else:
+                    # The pair problems of this rank: its rows, the columns of its pairs.
+                    sub = W.reshape(npl, m, 3, nb, m)[:, :, :2, q0:q0 + npl, :]
+                    sub = np.ascontiguousarray(
+                        np.diagonal(sub, axis1=0, axis2=3).transpose(3, 0, 1, 2))
+                    # Round 0 of a sweep also sweeps the pairs inside each block; later
+                    # rounds only those between a pair's two blocks (each pair once a sweep).
+                    sub_out, Tt = _level(sub, sizes[1:], rnd > 0)
+                d = np.diagonal(sub_out[:, :, 1, :], axis1=1, axis2=2)
+                if _any(slots, np.any(~(d > 0))):
+                    raise NumericalError(
+                        f"Jacobi: the mass matrix is singular or indefinite (a transformed "
+                        f"M_ii <= 0 in sweep {sweep}); check for too few points per cell")
+                # Scale the new basis vectors to unit modal mass: M near I, K near Lambda.
+                scale = 1.0 / np.sqrt(d)
+                Tt *= scale[:, :, None]
+                sub_out *= scale[:, :, None, None] * scale[:, None, None, :]
+                if pool is not None and rnd < nblk - 2:
+                    pending = pool.submit(_level, _next_problems(W, Tt, sub_out, src),
+                                          sizes[1:], True)
+                W, Z = _apply_round(W, Y, Z, Tt, sub_out, slots, moves, dest, B, alone)
+                index = index[se]
+            coupling, change, lam_old, mdiag = _convergence(slots, W, index[mine], n, n2,
+                                                            lam_old)
+            if coupling <= tol and change <= tol:
+                break
+        else:
+            raise _not_converged(max_sweeps, coupling, change, tol, n)
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True)
+        blas.restore()
     return _finish(K, slots, W, index[mine], mdiag, lam_old, n, nmodes, sweep, t0, coupling,
                    change)
+
+
+class _BlasThreads:
+    """Set OpenBLAS's thread count to the cores this rank may use, restore it afterwards.
+
+    Cores: os.cpu_count() shared by the ranks on this node, one of them left to the sweep
+    thread when there is one. Any other BLAS (no openblas_set_num_threads) is left alone.
+    """
+
+    def __init__(self, mpi, worker):
+        import ctypes
+        import os
+
+        self.lib, self.old = None, None
+        try:
+            lib = ctypes.CDLL("libblas.so.3")
+            get, put = lib.openblas_get_num_threads, lib.openblas_set_num_threads
+        except (OSError, AttributeError):
+            return
+        from mpi4py import MPI
+
+        node = mpi.Split_type(MPI.COMM_TYPE_SHARED)
+        cores = max(1, (os.cpu_count() or 1) // node.Get_size() - (1 if worker else 0))
+        node.Free()
+        self.lib, self.old = lib, get()
+        put(min(cores, self.old))
+
+    def restore(self):
+        if self.lib is not None:
+            self.lib.openblas_set_num_threads(self.old)
+
+
+def _next_problems(W, Tt, sub_out, src):
+    """The next round's pair problems (nb, 2B, 2, 2B) on one rank, from this round's rows W
+    (before its products), transformations Tt and pair results sub_out.
+
+    The next pair q' joins block slots a = src[2q'] and b = src[2q' + 1], which belong to
+    different pairs of this round: its diagonal blocks are parts of those pairs' results, its
+    off-diagonal block is (rows of Tt for a) K[pair(a), pair(b)] (rows of Tt for b)^T. The
+    matrix products of the round later give the same numbers up to rounding; the pair
+    results are written over them, as always.
+    """
+    nb, m = Tt.shape[:2]
+    B = m // 2
+    a, b = src[0::2], src[1::2]
+    half = sub_out.reshape(nb, 2, B, 2, 2, B)
+    Ta = Tt.reshape(nb, 2, B, m)[a // 2, a % 2]              # (nb, B, m)
+    Tb = Tt.reshape(nb, 2, B, m)[b // 2, b % 2]
+    Kab = W.reshape(nb, m, 3, nb, m)[a // 2, :, :2, b // 2, :]     # (nb, m, 2, m)
+    X = np.matmul(np.matmul(Ta[:, None], Kab.transpose(0, 2, 1, 3)),
+                  Tb[:, None].transpose(0, 1, 3, 2))         # (nb, 2, B, B)
+    out = np.empty((nb, m, 2, m))
+    out[:, :B, :, :B] = half[a // 2, a % 2, :, :, a % 2, :]
+    out[:, B:, :, B:] = half[b // 2, b % 2, :, :, b % 2, :]
+    out[:, :B, :, B:] = X.transpose(0, 2, 1, 3)
+    out[:, B:, :, :B] = X.transpose(0, 3, 1, 2)
+    return out
+
+
+def _apply_round(W, Y, Z, Tt, sub_out, slots, moves, dest, B, alone):
+    """Apply the round's pair transformations to the rows [K; M; Phi^T] W (Y, Z: work
+    arrays); returns (W of the next round, the free work array)."""
+    nloc, _, n2 = W.shape
+    npl, m = Tt.shape[:2]
+    nb, nblk = n2 // m, n2 // B
+    q0 = slots.lo // 2
+    kk = np.arange(npl)
+    # Rows: T^T [K; M; Phi^T] for this rank's pairs. On one rank they are written
+    # straight to the rows the tournament moves them to; on several, moved after.
+    T = slots.allgather_pairs(Tt).transpose(0, 2, 1)
+    Xr = W.reshape(npl, m, 3 * n2)
+    if alone:
+        for pairs, h, to in moves:
+            np.matmul(Tt[pairs, h * B:(h + 1) * B], Xr[pairs, :, :2 * n2],
+                      out=Y.reshape(nblk, B, 2 * n2)[to])
+            np.matmul(Tt[pairs, h * B:(h + 1) * B], Xr[pairs, :, 2 * n2:],
+                      out=Z.reshape(nblk, B, 3 * n2)[to, :, 2 * n2:])
+        rowblk = dest[2 * kk[:, None] + np.arange(2)]
+    else:
+        np.matmul(Tt, Xr[:, :, :2 * n2], out=Y.reshape(npl, m, 2 * n2))
+        np.matmul(Tt, Xr[:, :, 2 * n2:], out=Z.reshape(npl, m, 3 * n2)[:, :, 2 * n2:])
+        rowblk = 2 * kk[:, None] + np.arange(2)
+    # Columns: K T and M T with every rank's T, written to the next round's columns.
+    for a in (0, 1):
+        Xc = Y[:, a].reshape(nloc, nb, m).transpose(1, 0, 2)
+        out = Z[:, a].reshape(nloc, nblk, B).transpose(1, 0, 2)
+        for pairs, h, to in moves:
+            np.matmul(Xc[pairs], T[pairs, :, h * B:(h + 1) * B], out=out[to])
+    # The pair problems' own results (exact zeros where they rotated), where the
+    # tournament moves the pairs' rows and columns.
+    Z6 = Z.reshape(nloc // B, B, 3, nblk, B)
+    colblk = dest[2 * (q0 + kk[:, None]) + np.arange(2)]
+    for h1 in (0, 1):
+        for h2 in (0, 1):
+            Z6[rowblk[:, h1], :, :2, colblk[:, h2], :] = \
+                sub_out[:, h1 * B:(h1 + 1) * B, :, h2 * B:(h2 + 1) * B]
+    if alone:
+        return Z, W
+    return slots.permute(Z.reshape(nloc // B, B * 3 * n2)).reshape(nloc, 3, n2), Z
 
 
 def _tournament_moves(nb):
