@@ -159,11 +159,13 @@ class TwoPhase:
         # Work arrays are field-major, (fields, ..., points): every NumPy operation then runs
         # one long loop over the points (broadcasting over short trailing axes is several
         # times slower per element).
-        # Kept from points-to-grid for grid-to-points: rows N, dN/dx, dN/dy (1, 1/m, 1/m)
-        # and the ghosted-local node numbers, (3, nen, n) and (nen, n).
-        self.W = np.empty((3, nen, n))
-        self.nodes = np.empty((nen, n), dtype=np.int64)
         m = max(1, min(n, CHUNK))
+        # Rows N, dN/dx, dN/dy (1, 1/m, 1/m) and ghosted-local node numbers of a chunk,
+        # (3, nen, m) and (nen, m). Grid-to-points computes them again from the same
+        # positions: that is cheaper than keeping them for all points (memory traffic,
+        # 128 bytes per Q4 point), except for a one-pass model, which keeps them.
+        self.W = np.empty((3, nen, m))
+        self.nodes = np.empty((nen, m), dtype=np.int64)
         self._c = np.empty((2, m))                 # cell indices, as floats
         self._ci = np.empty((2, m), dtype=np.int64)
         self._base = np.empty(m, dtype=np.int64)
@@ -224,7 +226,7 @@ class TwoPhase:
 
         self.ev_g2p.begin()
         for s in range(0, n, CHUNK):
-            self._g2p(s, min(s + CHUNK, n), dt, flip)
+            self._g2p(s, min(s + CHUNK, n), n <= CHUNK, dt, flip)
         self.ev_g2p.end()
 
     def _shape_rows(self, t, m, W):
@@ -269,10 +271,11 @@ class TwoPhase:
         np.multiply(Ld[1][:, None], Lv[0][None, :], out=Wy)
         Wy *= self._scale[1, 0]
 
-    def _p2g(self, s, e, whole):
-        """Points s:e to grid: (lo, span, sums), sums of the NF fields (field-major) over
-        the ghosted-local nodes lo:lo+span (all of them when ``whole``)."""
-        m, nen = e - s, self._nen
+    def _interpolate(self, s, e, whole):
+        """Shape-function rows and node numbers of points s:e (self.W, self.nodes, first
+        e - s columns); returns (W, nodes, base, same), ``base`` the cells' first node and
+        ``same`` whether the cells are those of the kept bincount index (one-pass model)."""
+        m = e - s
         # Cells as Grid.locate finds them (floor(x / h), clipped to the grid; NaN gives cell
         # 0 there and here) and the local coordinates t = x / h - cell in them (the natural
         # coordinates are 2 t - 1).
@@ -284,16 +287,22 @@ class TwoPhase:
         np.fmin(c, self._cmax2, out=c)
         t -= c
         np.copyto(ci, c, casting="unsafe")
-        W, nodes = self.W[:, :, s:e], self.nodes[:, s:e]
+        W, nodes, base = self.W[:, :, :m], self.nodes[:, :m], self._base[:m]
         self._shape_rows(t, m, W)
         # One pass over all points (a small model): node numbers and the bincount index only
         # change when a point changes cell, which is rare; otherwise keep them.
         same = whole and self._idx_cells is not None and (ci == self._idx_cells).all()
         if not same:
-            base = self._base[:m]
             np.multiply(ci[0], self._stride[0], out=base)
             base += ci[1] * self._stride[1]
             np.add(base, self._offl[:, None], out=nodes)
+        return W, nodes, base, same
+
+    def _p2g(self, s, e, whole):
+        """Points s:e to grid: (lo, span, sums), sums of the NF fields (field-major) over
+        the ghosted-local nodes lo:lo+span (all of them when ``whole``)."""
+        m, nen = e - s, self._nen
+        W, nodes, base, same = self._interpolate(s, e, whole)
 
         # Per point and node: w V, w V v_s, w V v_l (fields 0-4); the forces
         # -(sigma' - p I) V grad N (fields 5, 6) and p V grad N (fields 7, 8).
@@ -332,7 +341,7 @@ class TwoPhase:
             lo, span = 0, self.ng
             if not same:
                 np.add(nodes, self._frow * span, out=idx)
-                self._idx_cells = ci.copy()
+                self._idx_cells = self._ci[:, :m].copy()
         else:
             # Points are mostly sorted by cell (placed so, and they move little): the chunk
             # touches a narrow band of nodes, and the sums need only that band.
@@ -375,12 +384,15 @@ class TwoPhase:
         O[4:8] += vn                             # v^{k+1} = v^k + dt a^k
         O *= self._free                          # fixed DOFs: a = 0 and v = 0
 
-    def _g2p(self, s, e, dt, flip):
+    def _g2p(self, s, e, whole, dt, flip):
         """Grid to points s:e: velocities, stress, pore pressure, positions, volume ratio."""
         m, nen = e - s, self._nen
-        W = self.W[:, :, s:e]
+        if whole:
+            W, nodes = self.W[:, :, :m], self.nodes[:, :m]      # kept from points-to-grid
+        else:
+            W, nodes = self._interpolate(s, e, False)[:2]       # positions not moved yet
         H = self._H[:NG * nen * m].reshape(NG, nen, m)
-        np.take(self._locgT, self.nodes[:, s:e], axis=1, out=H, mode="clip")
+        np.take(self._locgT, nodes, axis=1, out=H, mode="clip")
         nat = 6 if flip == 1.0 else 8
         at = self._at[:nat, :m]
         np.einsum("am,fam->fm", W[0], H[:nat], out=at)          # N-interpolated fields
