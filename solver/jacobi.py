@@ -88,7 +88,8 @@ def rotation_parameters(Kii, Kjj, Kij, Mii, Mjj, Mij):
     return alpha, gamma
 
 
-# Products Kii Mij, Mii Kij, Kjj Mij, Mjj Kij, Kii Mjj, Kjj Mii from (Kii, Kjj, Kij, Mii, Mjj, Mij).
+# The products Kii Mij, Mii Kij, Kjj Mij, Mjj Kij, Kii Mjj, Kjj Mii from the stacked
+# (Kii, Kjj, Kij, Mii, Mjj, Mij).
 _LEFT, _RIGHT = np.array([0, 3, 1, 4, 0, 1]), np.array([5, 2, 5, 2, 4, 3])
 
 
@@ -116,6 +117,7 @@ def _rotations(e, out):
     np.divide(k[1], x, out=out[..., 1, 0])
     np.divide(k[0], x, out=out[..., 0, 1])
     np.negative(out[..., 0, 1], out=out[..., 0, 1])
+
 
 def tournament(n2: int) -> np.ndarray:
     """src[s] = the slot whose row moves into slot s between two rounds (n2 even)."""
