@@ -576,9 +576,11 @@ def _solve_blocked(K, M, nmodes, tol, max_sweeps, sizes, t0):
                 scale = 1.0 / np.sqrt(d)
                 Tt *= scale[:, :, None]
                 sub_out *= scale[:, :, None, None] * scale[:, None, None, :]
-                if pool is not None and rnd < nblk - 2:
+                if pool is not None:
+                    # After a sweep's last round comes round 0 of the next sweep (swept in
+                    # vain if this sweep converges).
                     pending = pool.submit(_level, _next_problems(W, Tt, sub_out, src),
-                                          sizes[1:], True)
+                                          sizes[1:], rnd < nblk - 2)
                 W, Z = _apply_round(W, Y, Z, Tt, sub_out, slots, moves, dest, B, alone)
                 index = index[se]
             coupling, change, lam_old, mdiag = _convergence(slots, W, index[mine], n, n2,
