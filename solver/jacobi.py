@@ -194,6 +194,32 @@ class _Slots:
         return out
 
 
+def _initial_rows(K, M, slots, mine, n, n2):
+    """Dense rows of K, M and Phi^T = I for the indices ``mine`` held by this rank, as one
+    (len, 3, n2) array (padding indices >= n decoupled with K = M = 1), and the initial
+    eigenvalue estimates K_ii / M_ii of all indices (every rank)."""
+    nloc = mine.size
+    W = np.zeros((nloc, 3, n2))
+    W[:, 0] = _dense_rows(K, mine, n, n2)
+    W[:, 1] = _dense_rows(M, mine, n, n2)
+    if _any(slots, not np.all(np.isfinite(W[:, 0]))):
+        raise NumericalError("Jacobi: the stiffness matrix has non-finite entries (NaN or "
+                             "Inf); the model itself is broken")
+    r = np.arange(nloc)
+    W[r, 2, mine] = 1.0
+    pad = mine >= n
+    W[pad, 0, mine[pad]] = W[pad, 1, mine[pad]] = 1.0
+    kd, md = W[r, 0, mine], W[r, 1, mine]
+    lam = np.zeros(n2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam[mine] = kd / md
+    lam = _allreduce_sum(slots, lam)
+    if np.any(_allreduce_sum(slots, _scatter(mine, md, n2))[:n] <= 0):
+        raise NumericalError("Jacobi: the mass matrix has a zero or negative diagonal "
+                             "entry (a DOF without mass); it must be positive definite")
+    return W, lam
+
+
 def _dense_rows(A, rows, n, n2):
     """Rows of the parallel Mat A (global indices ``rows``, < n) as a dense (len, n2) array."""
     keep = rows[rows < n]
@@ -518,25 +544,8 @@ def _solve_blocked(K, M, nmodes, tol, max_sweeps, sizes, t0):
     npl, q0 = (slots.hi - slots.lo) // 2, slots.lo // 2
     index = np.arange(n2)                # index[s]: the basis vector held in slot s
 
-    W = np.zeros((nloc, 3, n2))
-    W[:, 0] = _dense_rows(K, mine, n, n2)
-    W[:, 1] = _dense_rows(M, mine, n, n2)
-    if _any(slots, not np.all(np.isfinite(W[:, 0]))):
-        raise NumericalError("Jacobi: the stiffness matrix has non-finite entries (NaN or "
-                             "Inf); the model itself is broken")
-    W[np.arange(nloc), 2, mine] = 1.0
-    dummy = mine >= n                    # padding to whole blocks: decoupled, K = M = 1
-    W[dummy, 0, mine[dummy]] = W[dummy, 1, mine[dummy]] = 1.0
-
+    W, lam_old = _initial_rows(K, M, slots, mine, n, n2)
     r = np.arange(nloc)
-    lam_old = np.zeros(n2)
-    kd, md = W[r, 0, mine], W[r, 1, mine]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam_old[mine] = kd / md
-    lam_old = _allreduce_sum(slots, lam_old)
-    if np.any(_allreduce_sum(slots, _scatter(mine, md, n2))[:n] <= 0):
-        raise NumericalError("Jacobi: the mass matrix has a zero or negative diagonal "
-                             "entry (a DOF without mass); it must be positive definite")
 
     src = tournament(nblk)
     se = _elements(src, B)
@@ -770,24 +779,7 @@ def _solve_scalar(K, M, nmodes, tol, max_sweeps, t0):
     nloc = mine.size
 
     # Rows of K, M and Phi^T side by side: one array to permute between rounds.
-    W = np.zeros((nloc, 3, n2))
-    W[:, 0] = _dense_rows(K, mine, n, n2)
-    W[:, 1] = _dense_rows(M, mine, n, n2)
-    if _any(slots, not np.all(np.isfinite(W[:, 0]))):
-        raise NumericalError("Jacobi: the stiffness matrix has non-finite entries (NaN or "
-                             "Inf); the model itself is broken")
-    W[np.arange(nloc), 2, mine] = 1.0
-    if n2 > n:
-        W[mine == n, 0, n] = W[mine == n, 1, n] = 1.0
-
-    lam_old = np.zeros(n2)
-    kd, md = W[np.arange(nloc), 0, mine], W[np.arange(nloc), 1, mine]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam_old[index[mine]] = kd / md
-    lam_old = _allreduce_sum(slots, lam_old)
-    if np.any(_allreduce_sum(slots, _scatter(index[mine], md, n2))[:n] <= 0):
-        raise NumericalError("Jacobi: the mass matrix has a zero or negative diagonal "
-                             "entry (a DOF without mass); it must be positive definite")
+    W, lam_old = _initial_rows(K, M, slots, mine, n, n2)
 
     r = np.arange(nloc // 2)
     for sweep in range(1, max_sweeps + 1):
