@@ -27,10 +27,13 @@ class Interpolation:
     cells: tuple        # (cx, cy), each (np,)
 
 
-def interpolation(grid, x) -> Interpolation:
-    """Shape functions and their gradients at points x (np, 2), in m."""
+def interpolation(grid, x, blended: bool = False) -> Interpolation:
+    """Shape functions and their gradients at points x (np, 2), in m; with ``blended`` those
+    of the blended basis N_hat (:func:`solver.shapes.blended`)."""
     cx, cy, xi, eta = grid.locate(x)
     N, dN = shapes.evaluate(grid.element, xi, eta)
+    if blended:
+        N, dN = shapes.blended(grid.element, N, dN, xi, eta)
     dNdx = dN * np.array([2.0 / grid.h[0], 2.0 / grid.h[1]])
     i, j = grid.cell_nodes(cx, cy)
     nodes = grid.local_node(i, j)
@@ -53,6 +56,17 @@ def lumping_weights(N, kind: str) -> np.ndarray:
 
 def default_lumping(element: str) -> str:
     return "hrz" if element == "q8" else "rowsum"
+
+
+def step_scheme(p) -> dict:
+    """The explicit step's discretisation choices, with ``auto`` resolved per element: the
+    most accurate measured (docs/studies.md, "Quadratic cells")."""
+    e = p.element
+    auto = {"lumping": default_lumping(e),
+            "kinematics": "small",
+            "pressure_projection": "nodal" if e == "q4" else "none",
+            "liquid_basis": "blended" if e == "q8" else "element"}
+    return {k: auto[k] if getattr(p, k) == "auto" else getattr(p, k) for k in auto}
 
 
 def elasticity(E: float, nu: float) -> np.ndarray:

@@ -21,7 +21,7 @@ FREE_OPTIONS = {"output", "summary", "figures", "debug", "progress", "restart",
                 "checkpoint_every", "checkpoint_seconds", "output_every", "Tv_end", "Tv_report",
                 "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
                 "stability_analysis"}
-VERSION = 1
+VERSION = 2    # 2: reference positions x0 (2 components) in place of y0
 
 
 def signature(p) -> str:
@@ -73,13 +73,14 @@ def read(path, p):
     return fields, layout, state
 
 
-def scatter(points, grid, fields, layout):
-    """Give this rank the checkpointed points of the cells it owns."""
+def scatter(points, grid, fields, layout, position="x"):
+    """Give this rank the checkpointed points of the cells it owns, located by the field
+    ``position`` (the one the step's shape functions use)."""
     cols, start = {}, 0
     for name, bs in layout.items():
         cols[name] = slice(start, start + bs)
         start += bs
-    x = fields[:, cols["x"]]
+    x = fields[:, cols[position]]
     cx, cy, _, _ = grid.locate(x)
     mine = fields[grid.cell_owner(cx, cy) == grid.comm.getRank()]
     points.resize(len(mine))

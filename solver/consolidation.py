@@ -97,15 +97,16 @@ def run(p, comm) -> int:
 
     H = p.size[1]
     bcs = eigen.boundary_conditions(p)
-    lumping = assembly.default_lumping(p.element) if p.lumping == "auto" else p.lumping
+    scheme = assembly.step_scheme(p)
     grid = Grid(comm, p.element, p.cells, p.size)
     points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
     restart = checkpoint.read(p.restart, p) if p.restart else None
     offset = mpi.exscan(points.n_local) or 0
-    with points.fields("x", "y0", "monitor", "id", "J") as (x, y0, mon, ids, J):
+    with points.fields("x", "x0", "monitor", "id", "J") as (x, x0, mon, ids, J):
         ids[:] = offset + np.arange(len(ids))     # global numbers, for messages
         J[:] = 1.0
-        y0[:] = x[:, 1]
+        x0[:] = x
+        y0 = x0[:, 1]
         if math.isnan(p.monitor_height):
             below = y0[y0 < H / 2 - 1e-12 * H]
             target = mpi.allreduce(float(below.max()) if below.size else -np.inf, op=MPI.MAX)
@@ -117,7 +118,8 @@ def run(p, comm) -> int:
         mon[:] = np.abs(y0 - target) < 1e-9 * H
     monitor_height = float(target)
     if restart is not None:
-        checkpoint.scatter(points, grid, restart[0], restart[1])
+        checkpoint.scatter(points, grid, restart[0], restart[1],
+                           "x0" if scheme["kinematics"] == "small" else "x")
 
     # Critical time steps.
     stage = PETSc.Log.Stage("Critical time steps")
@@ -132,7 +134,7 @@ def run(p, comm) -> int:
                         f"{exc}", comm=comm)
         f1 = math.nan
     if p.stability_analysis:
-        dt_discrete, patch = timestep.discrete_limit(comm, p, lumping)
+        dt_discrete, patch = timestep.discrete_limit(comm, p, scheme)
     else:
         dt_discrete, patch = math.nan, p.cells
     limits = timestep.criteria(p, f1, dt_discrete, grid)
@@ -172,10 +174,12 @@ def run(p, comm) -> int:
     PETSc.Sys.Print(f"Consolidation: {p.element.upper()}, {p.cells[0]} x {p.cells[1]} cells, "
                     f"{points.n_global} material points, {comm.getSize()} rank(s); "
                     f"c_v = {cv:.4g} m2/s, T_v = {p.Tv_end} at t = {t_end:.4g} s: "
-                    f"{nsteps} steps of {dt:.4g} s; monitor at y = {monitor_height:.5g} m",
-                    comm=comm)
+                    f"{nsteps} steps of {dt:.4g} s; monitor at y = {monitor_height:.5g} m\n"
+                    f"Scheme: {scheme['kinematics']} kinematics, lumping {scheme['lumping']}, "
+                    f"liquid basis {scheme['liquid_basis']}, pressure projection "
+                    f"{scheme['pressure_projection']}", comm=comm)
 
-    model = TwoPhase(grid, points, p, bcs, lumping)
+    model = TwoPhase(grid, points, p, bcs, scheme)
     q = load_scale(p)
     scale = max(q, eigen.mixture_density(p) * p.gravity * H, 1.0)
     files = {}
@@ -198,7 +202,7 @@ def run(p, comm) -> int:
                "cells": list(p.cells), "ppc": p.ppc, "n_points": points.n_global,
                "steps": 0, "dt": dt, "wall_seconds": 0.0, "stable": True,
                "dt_critical": limits, "dt_governing": smallest, "dt_exceeds": exceeded,
-               "lumping": lumping, "damping": p.damping, "flip": p.flip,
+               **scheme, "damping": p.damping, "flip": p.flip,
                "f1_hz": f1, "c_v": cv, "c2": c2,
                "p0_consistent_over_q": p0, "scene": workprecision.scene_signature(p)}
     if goal is not None:
@@ -311,8 +315,8 @@ def _monitor(points, mpi):
 
 def _profile(points, comm):
     """(y0, p, volume, x) of every point, gathered on rank 0 (None elsewhere)."""
-    y0, pp, V, x = points.get("y0", "p", "volume", "x")
-    parts = comm.tompi4py().gather(np.column_stack([y0, pp, V, x[:, 0]]), root=0)
+    x0, pp, V, x = points.get("x0", "p", "volume", "x")
+    parts = comm.tompi4py().gather(np.column_stack([x0[:, 1], pp, V, x[:, 0]]), root=0)
     return np.concatenate(parts) if parts is not None else None
 
 

@@ -140,6 +140,18 @@ SPEC = [
            (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
     Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
+    Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
+           "points' initial positions: small strains, as the constant volumes and porosity "
+           "assume), large (at their current positions: moving-point MPM), auto (small)",
+           (CONSOLIDATION,), choices=("auto", "small", "large")),
+    Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
+           "point), nodal (projected onto the nodal field and interpolated back), auto "
+           "(nodal for q4, none for q8 and q9)", (CONSOLIDATION,),
+           choices=("auto", "none", "nodal")),
+    Option("liquid_basis", "str", "auto", "test functions of the liquid equation (its masses, "
+           "drag, forces and momentum): element (N), blended (N/2 + N_Q4/2, positive lumped "
+           "weights), auto (blended for q8)", (CONSOLIDATION,),
+           choices=("auto", "element", "blended")),
     Option("checkpoint_every", "int", 0, "write OUTPUT/checkpoint.npz every N steps (0: never)",
            (CONSOLIDATION,), _nonnegative),
     Option("checkpoint_seconds", "float", 0.0, "also write it every S seconds of wall time",

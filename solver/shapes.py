@@ -80,3 +80,29 @@ def gauss_1d(n: int):
 def uniform_1d(n: int):
     """Centres of n equal sub-intervals of [-1, 1] and their weights (the MPM placement)."""
     return -1 + (2 * np.arange(n) + 1) / n, np.full(n, 2.0 / n)
+
+
+def corners(element: str) -> np.ndarray:
+    """Local numbers of the cell's four corner nodes, in the Q4 order (0,0), (p,0), (0,p),
+    (p,p)."""
+    off, p = OFFSETS[element], ORDER[element]
+    return np.array([int(np.flatnonzero((off[:, 0] == i) & (off[:, 1] == j))[0])
+                     for j in (0, p) for i in (0, p)])
+
+
+# Weight of the element's own functions in the blended liquid basis: corner values of
+# w N_Q8 + (1 - w) N_Q4 stay positive for w < 3/4; 1/2 is the measured choice (docs/method.md).
+BLEND = 0.5
+
+
+def blended(element: str, N, dN, xi, eta, weight: float = BLEND):
+    """The blended basis N_hat = w N + (1 - w) N_Q4 (N_Q4 the bilinear functions of the
+    corner nodes) and its natural derivatives, from the element's N (n, nen) and dN
+    (n, nen, 2) at (xi, eta). It reproduces constant and linear fields, as N does, and its
+    row sums (lumped weights) are positive where Q8's corner row sums are negative."""
+    N4, dN4 = evaluate("q4", xi, eta)
+    c = corners(element)
+    Nh, dNh = weight * N, weight * dN
+    Nh[:, c] += (1 - weight) * N4
+    dNh[:, c] += (1 - weight) * dN4
+    return Nh, dNh

@@ -59,7 +59,7 @@ def impermeable(drained) -> dict:
 MAX_STATE = 4000   # dense stability analysis up to this many unknowns, else on a patch
 
 
-def discrete_limit(comm, p, lumping) -> tuple:
+def discrete_limit(comm, p, scheme) -> tuple:
     """The stability limit (s) of the explicit step itself, and the cells it was found on.
 
     Linearised (points fixed, no local damping), one step maps the nodal accumulated
@@ -88,13 +88,13 @@ def discrete_limit(comm, p, lumping) -> tuple:
     if comm.getRank() == 0:
         grid = Grid(PETSc.COMM_SELF, p.element, cells, size)
         points = place(grid, p.ppc, mixture_density(p), "uniform")
-        limit = _bisect_limit(_linear_step(grid, points, p, lumping), p.flip,
+        limit = _bisect_limit(_linear_step(grid, points, p, scheme), p.flip,
                               min(2 / drag_rate(p), min(grid.h) / wave_speeds(p)["c1"]))
         points.destroy()
     return comm.tompi4py().bcast(limit, root=0), cells
 
 
-def _linear_step(grid, points, p, lumping):
+def _linear_step(grid, points, p, scheme):
     """Dense L_U, L_y, R of the linearised step over the free DOFs (one rank)."""
     n = p.porosity
     x, V = points.get("x", "volume")
@@ -109,20 +109,32 @@ def _linear_step(grid, points, p, lumping):
         np.add.at(out, (rows, nodes.ravel()), values.ravel())
         return out
 
-    Nm, Wm = spread(N), spread(assembly.lumping_weights(N, lumping))
+    Nm, Wm = spread(N), spread(assembly.lumping_weights(N, scheme["lumping"]))
     Dx, Dy = spread(dN[..., 0]), spread(dN[..., 1])
+    # The liquid equation's test functions: N, or the blended N_hat (its own weights).
+    if scheme["liquid_basis"] == "blended":
+        bl = assembly.interpolation(grid, x, blended=True)
+        Wl, Dl = spread(bl.N), np.hstack([spread(bl.dNdx[..., 0]), spread(bl.dNdx[..., 1])])
+    else:
+        Wl, Dl = Wm, None
     ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
-    Ms, Ml, Mt, Q = (Wm.T @ v for v in (ms, ml, mt, drag_coefficient(p) * V))
+    Ms, Ml = Wm.T @ ms, Wm.T @ ml
+    Mt, Q, Mlh = (Wl.T @ v for v in (mt, drag_coefficient(p) * V, ml))
     Z = np.zeros_like(Dx)
     B = np.stack([np.hstack([Dx, Z]), np.hstack([Z, Dy]), np.hstack([Dy, Dx])], axis=1)
     div = B[:, 0] + B[:, 1]
     sig = np.einsum("ij,pjk->pik", assembly.elasticity(p.E, p.nu), B)
     sig = np.concatenate([sig, np.zeros_like(sig)], axis=2)            # on (U_s, U_l)
     pres = -(p.K_l / n) * np.hstack([(1 - n) * div, n * div])
+    if scheme["pressure_projection"] == "nodal":
+        # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
+        S = Wm.T @ V
+        pres = Nm @ ((np.divide(1.0, S, out=np.zeros_like(S), where=S > 0)[:, None]
+                      * (Wm * V[:, None]).T) @ pres)
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     fm = -np.einsum("pik,p,pij->kj", B, V, sig)
-    fl = np.einsum("pk,p,pj->kj", div, V, pres)
+    fl = np.einsum("pk,p,pj->kj", div if Dl is None else Dl, V, pres)
 
     def inv(a):
         return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)
@@ -133,7 +145,7 @@ def _linear_step(grid, points, p, lumping):
     LU = np.vstack([inv(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
     Ly = np.vstack([-inv(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
     Rs = inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
-    Rl = inv(Ml)[:, None] * ((Wm * ml[:, None]).T @ Nm)
+    Rl = inv(Mlh)[:, None] * ((Wl * ml[:, None]).T @ Nm)
     R = np.zeros((4 * nn, 4 * nn))
     for b, Rb in enumerate((Rs, Rs, Rl, Rl)):
         R[b * nn:(b + 1) * nn, b * nn:(b + 1) * nn] = Rb

@@ -38,12 +38,13 @@ from . import assembly, shapes
 from .errors import NumericalError
 from .timestep import drag_coefficient, impermeable
 
-NF = 9    # nodal fields summed from the points: S, V v_s (2), V v_l (2), f_m (2), f_l (2)
+NF = 9    # nodal fields summed from the points: S, V v_s (2), V v_l (2), f_m (2), f_l (2),
+#           and S_l = sum N_hat V (the liquid's own weights) with a blended liquid basis
 NG = 8    # fields sent back to the points: a_s(2), a_l(2), v_s(2), v_l(2)
 CHUNK = 4096   # points per pass (about 1.5 MB of Q4 work arrays: within a core's L2 cache)
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
-POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "y0": 1, "monitor": 1, "id": 1,
+POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
                 "J": 1}
 
 _EVENTS = {}
@@ -67,9 +68,15 @@ class TwoPhase:
     needs no notice (they are read every step); code that resizes or migrates the swarm must
     go through ``MaterialPoints`` (it bumps the generation)."""
 
-    def __init__(self, grid, points, p, bcs, lumping):
+    def __init__(self, grid, points, p, bcs, scheme):
         self.grid, self.points, self.p = grid, points, p
-        self.lumping = lumping
+        self.lumping = lumping = scheme["lumping"]
+        # Small kinematics: shape functions at the initial positions x0 (a point's cell never
+        # changes, so nothing migrates); large: at the current positions.
+        self.small = scheme["kinematics"] == "small"
+        self.project = scheme["pressure_projection"] == "nodal"
+        self.blend = scheme["liquid_basis"] == "blended"
+        self.nf = NF + self.blend
         self.D = assembly.elasticity(p.E, p.nu)
         self.gvec = np.array([0.0, -p.gravity])
         n = p.porosity
@@ -90,10 +97,13 @@ class TwoPhase:
         # periodic), so the nodal sums need no PETSc scatter.
         assert not self.serial or self.ng == self.nown
         if not self.serial:
-            self.da_f = grid.da.duplicate(dof=NF)
+            self.da_f = grid.da.duplicate(dof=self.nf)
             self.da_g = grid.da.duplicate(dof=NG)
             self.loc_f, self.glob_f = self.da_f.createLocalVec(), self.da_f.createGlobalVec()
             self.loc_g, self.glob_g = self.da_g.createLocalVec(), self.da_g.createGlobalVec()
+            if self.project:
+                self.da_p = grid.da.duplicate(dof=1)
+                self.loc_p, self.glob_p = self.da_p.createLocalVec(), self.da_p.createGlobalVec()
         self.fixed_s = grid.constrained_mask(bcs).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
         # 0 on the fixed DOFs of (a_s, a_l, v_s, v_l), 1 elsewhere: (NG, nown), field-major.
@@ -115,7 +125,9 @@ class TwoPhase:
         self._stride = np.array([grid.p, grid.p * grid.gxm], dtype=np.int64)
         self._offl = (off[:, 1] - grid.gys) * grid.gxm + (off[:, 0] - grid.gxs)
         self._offl_min, self._offl_max = int(self._offl.min()), int(self._offl.max())
-        self._frow = np.arange(NF, dtype=np.int64)[:, None, None]
+        self._frow = np.arange(self.nf, dtype=np.int64)[:, None, None]
+        self._corners = shapes.corners(grid.element)
+        self._invS = np.zeros(self.nown)            # 1 / S of the owned nodes, this step
         # Partitioned directions and this rank's box of cells in cell units (+-inf at the
         # ends of the grid, where locate clips), for the cheap "does any point leave" test.
         (x0, x1), (y0, y1) = grid.owned_cell_range()
@@ -152,8 +164,9 @@ class TwoPhase:
         if self._gen == self.points.generation:
             return
         pts = self.points
-        (self.x, self.V, self.vs, self.vl, self.sig, self.pp,
-         self.J) = pts.views("x", "volume", "vs", "vl", "stress", "p", "J")
+        (self.x, self.x0, self.V, self.vs, self.vl, self.sig, self.pp,
+         self.J) = pts.views("x", "x0", "volume", "vs", "vl", "stress", "p", "J")
+        self.xref = self.x0 if self.small else self.x
         n, nen, k = pts.n_local, self._nen, self._order + 1
         self.n_local = n
         # Work arrays are field-major, (fields, ..., points): every NumPy operation then runs
@@ -165,6 +178,8 @@ class TwoPhase:
         # positions: that is cheaper than keeping them for all points (memory traffic,
         # 128 bytes per Q4 point), except for a one-pass model, which keeps them.
         self.W = np.empty((3, nen, m))
+        # Rows N_hat, dN_hat/dx, dN_hat/dy of the blended liquid basis (else those of N).
+        self.Wl = np.empty((3, nen, m)) if self.blend else self.W
         self.nodes = np.empty((nen, m), dtype=np.int64)
         self._c = np.empty((2, m))                 # cell indices, as floats
         self._ci = np.empty((2, m), dtype=np.int64)
@@ -175,11 +190,13 @@ class TwoPhase:
         self._w = np.empty((nen, m)) if self.hrz else None
         self._Kw = np.empty((4, m))                # V v_s, V v_l
         self._T = np.empty((4, m))                 # -(sigma' - p) V, row-major 2 x 2
-        self._C = np.empty(NF * nen * m)           # (NF, nen, m) per chunk
+        self._C = np.empty(self.nf * nen * m)      # (nf, nen, m) per chunk
         self._C2 = np.empty((2, nen, m))
-        self._idx = np.empty(NF * nen * m, dtype=np.int64)
+        self._idx = np.empty(self.nf * nen * m, dtype=np.int64)
         self._idx_cells = None                     # cells the kept index was built for
-        self._acc = None if n <= CHUNK else np.empty((NF, self.ng))
+        self._acc = None if n <= CHUNK else np.empty((self.nf, self.ng))
+        # Pressure projection: nodal sums of the points' increments, sum w V dp.
+        self._accp = np.empty(self.ng) if self.project else None
         self._H = np.empty(NG * nen * m)           # (NG, nen, m) per chunk
         self._at = np.empty((NG, m))
         self._Ls = np.empty((2, 2, m))
@@ -197,23 +214,24 @@ class TwoPhase:
         load, damping is the local damping coefficient, flip the FLIP fraction."""
         self._prepare()
         n = self.n_local
+        nf = self.nf
         self.ev_p2g.begin()
         if n <= CHUNK:
             # One pass: its bincount spans the whole ghosted node set directly.
-            acc = (self._p2g(0, n, True)[2] if n else np.zeros(NF * self.ng)).reshape(NF, -1)
+            acc = (self._p2g(0, n, True)[2] if n else np.zeros(nf * self.ng)).reshape(nf, -1)
         else:
             acc = self._acc
             acc.fill(0.0)
             for s in range(0, n, CHUNK):
                 lo, span, part = self._p2g(s, min(s + CHUNK, n), False)
-                acc[:, lo:lo + span] += part.reshape(NF, span)
+                acc[:, lo:lo + span] += part.reshape(nf, span)
         if self.serial:
             G, O = acc, self._locgT
         else:
-            np.copyto(self.loc_f.getArray().reshape(self.ng, NF), acc.T)
+            np.copyto(self.loc_f.getArray().reshape(self.ng, nf), acc.T)
             self.glob_f.zeroEntries()
             self.da_f.localToGlobal(self.loc_f, self.glob_f, addv=PETSc.InsertMode.ADD_VALUES)
-            G = self.glob_f.getArray().reshape(-1, NF).T
+            G = self.glob_f.getArray().reshape(-1, nf).T
             O = self.glob_g.getArray().reshape(-1, NG).T
         self.ev_p2g.end()
 
@@ -225,21 +243,52 @@ class TwoPhase:
         self.ev_nodal.end()
 
         self.ev_g2p.begin()
+        if self.project:
+            self._accp.fill(0.0)
         for s in range(0, n, CHUNK):
             self._g2p(s, min(s + CHUNK, n), n <= CHUNK, dt, flip)
+        if self.project:
+            self._project(n)
         self.ev_g2p.end()
+
+    def _project(self, n):
+        """Pore-pressure increments through the nodes: lumped L2 projection of the points'
+        increments dp onto the nodal field (sum w V dp / S) and its interpolation back."""
+        if self.serial:
+            pn = self._accp
+            pn *= self._invS
+        else:
+            np.copyto(self.loc_p.getArray(), self._accp)
+            self.glob_p.zeroEntries()
+            self.da_p.localToGlobal(self.loc_p, self.glob_p, addv=PETSc.InsertMode.ADD_VALUES)
+            self.glob_p.getArray()[:] *= self._invS
+            self.da_p.globalToLocal(self.glob_p, self.loc_p)
+            pn = self.loc_p.getArray()
+        for s in range(0, n, CHUNK):
+            e = min(s + CHUNK, n)
+            if n <= CHUNK and self.small:
+                W, nodes = self.W[:, :, :n], self.nodes[:, :n]     # kept, at x0
+            else:
+                # Large kinematics: at the points' new positions, whatever the chunking.
+                W, nodes = self._interpolate(s, e, False)[:2]
+            self.pp[s:e] -= np.einsum("am,am->m", W[0], pn[nodes])
 
     def _shape_rows(self, t, m, W):
         """Rows N, dN/dx, dN/dy (W, (3, nen, m)) from the local coordinates t = (x - x_cell)
         / h in [0, 1] (2, m) of the points in their cells."""
         k = self._order + 1
-        if self.grid.element == "q8":
+        if self.grid.element == "q8" or self.blend:
             s = np.multiply(t, 2.0, out=self._s[:, :m])
             s -= 1.0
-            N, dN = shapes.evaluate("q8", s[0], s[1])
-            W[0] = N.T
-            W[1:3] = dN.transpose(2, 1, 0)
-            W[1:3] *= self._scale[:, :, None]
+            N, dN = shapes.evaluate(self.grid.element, s[0], s[1])
+            rows = [(W, N, dN)]
+            if self.blend:
+                rows.append((self.Wl[:, :, :m],
+                             *shapes.blended(self.grid.element, N, dN, s[0], s[1])))
+            for Wr, Nr, dNr in rows:
+                Wr[0] = Nr.T
+                Wr[1:3] = dNr.transpose(2, 1, 0)
+                Wr[1:3] *= self._scale[:, :, None]
             return
         # Lagrange cells: N_a = l_i(xi) l_j(eta) for node a = (i, j), a = j (p + 1) + i: each
         # row is an outer product of 1D polynomials (as in shapes.lagrange1d) in x and y.
@@ -281,7 +330,7 @@ class TwoPhase:
         # coordinates are 2 t - 1).
         c, ci, Lv = self._c[:, :m], self._ci[:, :m], self._Lv[:, :, :m]
         t = Lv[:, -1]
-        np.divide(self.x[s:e].T, self._h2, out=t)
+        np.divide(self.xref[s:e].T, self._h2, out=t)
         np.floor(t, out=c)
         np.fmax(c, 0.0, out=c)                  # fmax: NaN -> 0
         np.fmin(c, self._cmax2, out=c)
@@ -299,25 +348,26 @@ class TwoPhase:
         return W, nodes, base, same
 
     def _p2g(self, s, e, whole):
-        """Points s:e to grid: (lo, span, sums), sums of the NF fields (field-major) over
+        """Points s:e to grid: (lo, span, sums), sums of the nf fields (field-major) over
         the ghosted-local nodes lo:lo+span (all of them when ``whole``)."""
-        m, nen = e - s, self._nen
+        m, nen, nf = e - s, self._nen, self.nf
         W, nodes, base, same = self._interpolate(s, e, whole)
+        Wl = self.Wl[:, :, :m]
 
-        # Per point and node: w V, w V v_s, w V v_l (fields 0-4); the forces
-        # -(sigma' - p I) V grad N (fields 5, 6) and p V grad N (fields 7, 8).
+        # Per point and node: w V, w V v_s, w_l V v_l (fields 0-4); the forces
+        # -(sigma' - p I) V grad N (fields 5, 6) and p V grad N_l (fields 7, 8); w_l V
+        # (field 9) with a blended liquid basis, whose N_hat is then w_l and N_l.
         V, pp, sig = self.V[s:e], self.pp[s:e], self.sig[s:e]
-        C = self._C[:NF * nen * m].reshape(NF, nen, m)
-        if self.hrz:
-            w = self._w[:, :m]
-            np.copyto(w, assembly.lumping_weights(W[0].T, self.lumping).T)
-        else:
-            w = W[0]
+        C = self._C[:nf * nen * m].reshape(nf, nen, m)
+        w = self._weights(W, m)
         Kw, T, t1 = self._Kw[:, :m], self._T[:, :m], self._t1[:m]
         np.multiply(self.vs[s:e].T, V, out=Kw[0:2])
         np.multiply(self.vl[s:e].T, V, out=Kw[2:4])
         np.multiply(w, V, out=C[0])
-        np.multiply(w, Kw[:, None], out=C[1:5])
+        np.multiply(w, Kw[0:2, None], out=C[1:3])
+        np.multiply(Wl[0] if self.blend else w, Kw[2:4, None], out=C[3:5])
+        if self.blend:
+            np.multiply(Wl[0], V, out=C[9])
         np.subtract(pp, sig[:, 0:2].T, out=self._t2[:, :m])
         np.multiply(self._t2[:, :m], V, out=T[0::3])           # -(s_xx - p) V, -(s_yy - p) V
         np.multiply(sig[:, 2], V, out=t1)
@@ -328,15 +378,15 @@ class TwoPhase:
         np.multiply(W[2], T[:, 1, None], out=C2)
         C[5:7] += C2
         np.multiply(pp, V, out=t1)
-        np.multiply(W[1:3], t1, out=C[7:9])
+        np.multiply(Wl[1:3], t1, out=C[7:9])
         if self.p.gravity:
-            # Body forces of the mixture and of the liquid, distributed with N.
+            # Body forces of the mixture (with N) and of the liquid (with N_l).
             g = self.gvec[1]
             np.multiply(V, ((1 - self.n) * self.p.rho_s + self.n * self.p.rho_l) * g, out=t1)
             C[6] += np.multiply(W[0], t1, out=C2[0])
             np.multiply(V, self.p.rho_l * g, out=t1)
-            C[8] += np.multiply(W[0], t1, out=C2[0])
-        idx = self._idx[:NF * nen * m].reshape(NF, nen, m)
+            C[8] += np.multiply(Wl[0], t1, out=C2[0])
+        idx = self._idx[:nf * nen * m].reshape(nf, nen, m)
         if whole:
             lo, span = 0, self.ng
             if not same:
@@ -348,16 +398,32 @@ class TwoPhase:
             lo = int(base.min()) + self._offl_min
             span = int(base.max()) + self._offl_max - lo + 1
             np.add(nodes, self._frow * span - lo, out=idx)
-        return lo, span, np.bincount(idx.ravel(), weights=C.ravel(), minlength=NF * span)
+        return lo, span, np.bincount(idx.ravel(), weights=C.ravel(), minlength=nf * span)
+
+    def _weights(self, W, m):
+        """Lumping weights w (nen, m) of the chunk's points from its rows W."""
+        if not self.hrz:
+            return W[0]
+        w = self._w[:, :m]
+        np.copyto(w, assembly.lumping_weights(W[0].T, self.lumping).T)
+        return w
 
     def _nodal(self, G, O, dt, load_factor, damping):
         """Nodal accelerations and velocities (eqs. 13, 14, 6) of the owned nodes from the
-        field-major sums G (NF, nown) into O (NG, nown)."""
+        field-major sums G (nf, nown) into O (NG, nown)."""
         S = G[0]
-        has = S > 0
-        invS = np.zeros_like(S)
-        np.divide(1.0, S, out=invS, where=has)
-        vn = G[1:5] * invS                       # v_s (rows 0, 1) and v_l (rows 2, 3)
+        invS = self._invS
+        invS.fill(0.0)
+        np.divide(1.0, S, out=invS, where=S > 0)
+        if self.blend:
+            # The liquid's masses and drag from its own weights: S_l = sum N_hat V.
+            Sl = G[9]
+            invSl = np.divide(1.0, Sl, out=np.zeros_like(Sl), where=Sl > 0)
+        else:
+            Sl, invSl = S, invS
+        vn = np.empty((4, len(S)))
+        np.multiply(G[1:3], invS, out=vn[0:2])   # v_s
+        np.multiply(G[3:5], invSl, out=vn[2:4])  # v_l
         vs_n, vl_n = vn[0:2], vn[2:4]
         fm = G[5:7]                              # G is scratch: changed in place
         fm[1] += load_factor * self.traction
@@ -374,9 +440,9 @@ class TwoPhase:
             fm -= damp
         a_s, a_l = O[0:2], O[2:4]
         rel = np.subtract(vl_n, vs_n)
-        rel *= self.c_q * S                      # Q (v_l - v_s)
+        rel *= self.c_q * Sl                     # Q (v_l - v_s)
         np.subtract(G[7:9], rel, out=a_l)
-        a_l *= invS * (1.0 / self.c_t)           # / M~_l
+        a_l *= invSl * (1.0 / self.c_t)          # / M~_l
         np.multiply(a_l, self.c_l * S, out=a_s)  # M_l a_l
         np.subtract(fm, a_s, out=a_s)
         a_s *= invS * (1.0 / self.c_s)           # / M_s
@@ -389,8 +455,9 @@ class TwoPhase:
         m, nen = e - s, self._nen
         if whole:
             W, nodes = self.W[:, :, :m], self.nodes[:, :m]      # kept from points-to-grid
+            base = None
         else:
-            W, nodes = self._interpolate(s, e, False)[:2]       # positions not moved yet
+            W, nodes, base = self._interpolate(s, e, False)[:3]   # positions not moved yet
         H = self._H[:NG * nen * m].reshape(NG, nen, m)
         np.take(self._locgT, nodes, axis=1, out=H, mode="clip")
         nat = 6 if flip == 1.0 else 8
@@ -421,14 +488,31 @@ class TwoPhase:
         np.multiply(t1, 1 - self.n, out=t1c)
         t1c += t1b
         t1c *= dt * self.p.K_l / self.n
-        pp = self.pp[s:e]
-        pp -= t1c                                    # eqs. 8-9
+        if self.project:
+            self._accumulate_dp(s, e, W, nodes, base, t1c)
+        else:
+            self.pp[s:e] -= t1c                      # eqs. 8-9
         np.multiply(at[4:6], dt, out=t2)
         np.add(x, t2, out=x)
         t1 *= dt
         t1 += 1
         J = self.J[s:e]
         J *= t1                  # volume ratio of the solid, to catch inversion
+
+    def _accumulate_dp(self, s, e, W, nodes, base, dp):
+        """Add the chunk's sum w V dp (pressure increments dp, Pa) to the nodal sums."""
+        m = e - s
+        wv = np.multiply(self._weights(W, m) if base is not None or not self.hrz
+                         else self._w[:, :m], self.V[s:e], out=self._C2[0, :, :m])
+        wv *= dp
+        if base is None:
+            self._accp += np.bincount(nodes.ravel(), weights=wv.ravel(), minlength=self.ng)
+            return
+        # The chunk's band of nodes, as in points-to-grid.
+        lo = int(base.min()) + self._offl_min
+        span = int(base.max()) + self._offl_max - lo + 1
+        self._accp[lo:lo + span] += np.bincount((nodes - lo).ravel(), weights=wv.ravel(),
+                                                minlength=span)
 
     def check(self, step: int, t: float, scale: float):
         """Stop (NumericalError, on every rank) on non-finite values, unbounded pore pressure,
@@ -485,7 +569,7 @@ class TwoPhase:
         # directions. A non-finite position fails the test and takes the general path.
         moving = 0
         for d, h, lo, hi in self._box:
-            u = self.x[:, d] / h
+            u = self.xref[:, d] / h
             if not ((u >= lo) & (u < hi)).all():
                 moving = 1
         if self._flags is None or len(self._flags) != 1 + len(flags):
@@ -498,7 +582,7 @@ class TwoPhase:
         self.mpi.Allreduce(self._flags, self._flags_out, op=MPI.MAX)
         out = self._flags_out.copy()
         if out[0]:
-            cx, cy, _, _ = self.grid.locate(self.x)
+            cx, cy, _, _ = self.grid.locate(self.xref)
             self.points.migrate(self.grid.cell_owner(cx, cy))
         self.ev_migrate.end()
         return out[1:]

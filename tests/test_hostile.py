@@ -165,7 +165,7 @@ def test_non_finite_values_are_caught():
     import numpy as np
     from petsc4py import PETSc
 
-    from solver import eigen, options
+    from solver import assembly, eigen, options
     from solver.errors import NumericalError
     from solver.grid import Grid
     from solver.points import place
@@ -184,7 +184,8 @@ def test_non_finite_values_are_caught():
     with points.fields("J", "id") as (J, ids):
         J[:] = 1.0
         ids[:] = np.arange(len(ids))
-    model = TwoPhase(grid, points, p, eigen.boundary_conditions(p), "rowsum")
+    model = TwoPhase(grid, points, p, eigen.boundary_conditions(p),
+                     assembly.step_scheme(p))
     model.check(1, 0.0, 1e4)                      # a sound state passes
     with points.fields("p") as pp:
         pp[3] = np.nan
