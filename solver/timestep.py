@@ -111,21 +111,25 @@ def _linear_step(grid, points, p, scheme):
 
     Nm, Wm = spread(N), spread(assembly.lumping_weights(N, scheme["lumping"]))
     Dx, Dy = spread(dN[..., 0]), spread(dN[..., 1])
-    # The liquid equation's test functions: N, or the blended N_hat (its own weights).
-    if scheme["liquid_basis"] == "blended":
-        bl = assembly.interpolation(grid, x, blended=True)
-        Wl, Dl = spread(bl.N), np.hstack([spread(bl.dNdx[..., 0]), spread(bl.dNdx[..., 1])])
-    else:
-        Wl, Dl = Wm, None
-    ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
-    Ms, Ml = Wm.T @ ms, Wm.T @ ml
-    Mt, Q, Mlh = (Wl.T @ v for v in (mt, drag_coefficient(p) * V, ml))
     Z = np.zeros_like(Dx)
     B = np.stack([np.hstack([Dx, Z]), np.hstack([Z, Dy]), np.hstack([Dy, Dx])], axis=1)
     div = B[:, 0] + B[:, 1]
+    # The liquid's weights Wl, interpolation Nl and divergence Dl: w, N and div, or the
+    # blended N_hat for all three.
+    if scheme["liquid_basis"] == "blended":
+        bl = assembly.interpolation(grid, x, blended=True)
+        Wl = Nl = spread(bl.N)
+        Dl = np.hstack([spread(bl.dNdx[..., 0]), spread(bl.dNdx[..., 1])])
+    else:
+        Wl, Nl, Dl = Wm, Nm, div
+    ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
+    Ms = Wm.T @ ms
+    Ml, Mt, Q = (Wl.T @ v for v in (ml, mt, drag_coefficient(p) * V))
     sig = np.einsum("ij,pjk->pik", assembly.elasticity(p.E, p.nu), B)
     sig = np.concatenate([sig, np.zeros_like(sig)], axis=2)            # on (U_s, U_l)
-    pres = -(p.K_l / n) * np.hstack([(1 - n) * div, n * div])
+    # dp = -(K_l / n) (div u_s + n div(u_l - u_s)), the relative motion in the liquid's
+    # basis: (1 - n) div u_s + n div u_l when that is N.
+    pres = -(p.K_l / n) * np.hstack([div - n * Dl, n * Dl])
     if scheme["pressure_projection"] == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
         S = Wm.T @ V
@@ -134,7 +138,7 @@ def _linear_step(grid, points, p, scheme):
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     fm = -np.einsum("pik,p,pij->kj", B, V, sig)
-    fl = np.einsum("pk,p,pj->kj", div if Dl is None else Dl, V, pres)
+    fl = np.einsum("pk,p,pj->kj", Dl, V, pres)
 
     def inv(a):
         return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)
@@ -145,7 +149,7 @@ def _linear_step(grid, points, p, scheme):
     LU = np.vstack([inv(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
     Ly = np.vstack([-inv(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
     Rs = inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
-    Rl = inv(Mlh)[:, None] * ((Wl * ml[:, None]).T @ Nm)
+    Rl = inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
     R = np.zeros((4 * nn, 4 * nn))
     for b, Rb in enumerate((Rs, Rs, Rl, Rl)):
         R[b * nn:(b + 1) * nn, b * nn:(b + 1) * nn] = Rb

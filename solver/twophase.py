@@ -431,9 +431,9 @@ class TwoPhase:
             # Local (Cundall) damping of the mixture's unbalanced force only: it takes
             # the undrained wave out, in which both phases move together, and leaves the
             # drag (which the liquid equation integrates explicitly) untouched. The sign of
-            # the mixture momentum M_s v_s + M_l v_l is that of c_s v_s + c_l v_l (S > 0).
+            # the mixture momentum M_s v_s + M_l v_l is that of c_s v_s + c_l (S_l / S) v_l.
             v_mix = self.c_s * vs_n
-            v_mix += self.c_l * vl_n
+            v_mix += self.c_l * (vl_n * (Sl * invS) if self.blend else vl_n)
             damp = np.abs(fm)
             damp *= np.sign(v_mix)
             damp *= damping
@@ -443,7 +443,7 @@ class TwoPhase:
         rel *= self.c_q * Sl                     # Q (v_l - v_s)
         np.subtract(G[7:9], rel, out=a_l)
         a_l *= invSl * (1.0 / self.c_t)          # / M~_l
-        np.multiply(a_l, self.c_l * S, out=a_s)  # M_l a_l
+        np.multiply(a_l, self.c_l * Sl, out=a_s)  # M_l a_l
         np.subtract(fm, a_s, out=a_s)
         a_s *= invS * (1.0 / self.c_s)           # / M_s
         np.multiply(O[0:4], dt, out=O[4:8])
@@ -458,15 +458,27 @@ class TwoPhase:
             base = None
         else:
             W, nodes, base = self._interpolate(s, e, False)[:3]   # positions not moved yet
+        Wl = self.Wl[:, :, :m]
         H = self._H[:NG * nen * m].reshape(NG, nen, m)
         np.take(self._locgT, nodes, axis=1, out=H, mode="clip")
         nat = 6 if flip == 1.0 else 8
         at = self._at[:nat, :m]
         np.einsum("am,fam->fm", W[0], H[:nat], out=at)          # N-interpolated fields
+        if self.blend:
+            # The liquid's fields in its own basis.
+            np.einsum("am,fam->fm", Wl[0], H[2:4], out=at[2:4])
+            if nat == 8:
+                np.einsum("am,fam->fm", Wl[0], H[6:8], out=at[6:8])
         Ls = self._Ls[:, :, :m]
         np.einsum("iam,jam->ijm", H[4:6], W[1:3], out=Ls)       # grad v_s [i, j]
         t1, t1b, t1c, t2 = self._t1[:m], self._t1b[:m], self._t1c[:m], self._t2[:, :m]
-        np.einsum("iam,iam->m", H[6:8], W[1:3], out=t1b)        # div v_l
+        np.einsum("iam,iam->m", H[6:8], Wl[1:3], out=t1b)       # div v_l
+        if self.blend:
+            # div (v_l - v_s) in the liquid's basis: the storage term is then
+            # div v_s + n div(v_l - v_s), whose power the liquid force balances exactly
+            # (the scheme conserves energy; docs/method.md).
+            np.einsum("iam,iam->m", H[4:6], Wl[1:3], out=t1c)
+            t1b -= t1c
         vs, vl, x = self.vs[s:e].T, self.vl[s:e].T, self.x[s:e].T
         if flip == 1.0:
             np.multiply(at[0:2], dt, out=t2)
@@ -485,7 +497,7 @@ class TwoPhase:
         sig = self.sig[s:e].T
         np.add(sig, np.matmul(self.D, E, out=self._E2[:, :m]), out=sig)   # D d eps
         t1b *= self.n
-        np.multiply(t1, 1 - self.n, out=t1c)
+        np.multiply(t1, 1.0 if self.blend else 1 - self.n, out=t1c)
         t1c += t1b
         t1c *= dt * self.p.K_l / self.n
         if self.project:

@@ -1,11 +1,12 @@
 """The optimised explicit step against a plain reference of the same scheme.
 
-The reference is the straightforward form of ``TwoPhase.step`` (twelve packed nodal fields per
-point and node, one bincount, einsum transfers; the solver's step before its optimisation,
-docs/performance.md). Both start from the same irregular state (points moved off their
-placement, random velocities, stresses and pressures) and must agree to roundoff after a few
-steps, for every cell type, both lumpings, gravity, FLIP/PIC and damping, and with points
-crossing cell boundaries (several chunks of points included).
+The reference is the straightforward form of ``TwoPhase.step`` (twelve packed nodal fields
+per point and node, one bincount, einsum transfers; the solver's step before its
+optimisation, docs/performance.md). Both start from the same irregular state (points moved
+off their placement, random velocities, stresses and pressures) and must agree to roundoff
+after a few steps, for every cell type, both lumpings, both kinematics, the pressure
+projection, the blended liquid basis, gravity, FLIP/PIC and damping, and with points crossing
+cell boundaries (several chunks of points included).
 """
 
 from __future__ import annotations
@@ -34,38 +35,45 @@ def _params(**opts):
             db.delValue("mpm_" + k)
 
 
-def _reference_step(grid, p, lumping, bcs, traction, st, dt, load_factor, damping, flip):
+def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping, flip):
     """One step of the plain formulation on the state dict ``st`` (serial)."""
     x, V, vs, vl, sig, pp, J = (st[k] for k in ("x", "V", "vs", "vl", "sig", "pp", "J"))
+    small = scheme["kinematics"] == "small"
     n = p.porosity
     D = assembly.elasticity(p.E, p.nu)
     drag = twophase.drag_coefficient(p)
     gvec = np.array([0.0, -p.gravity])
     ng = grid.gxm * grid.gym
-    it = assembly.interpolation(grid, x)
+    it = assembly.interpolation(grid, st["x0"] if small else x)
     N, dN, nodes = it.N, it.dNdx, it.nodes
-    w = assembly.lumping_weights(N, lumping)
+    w = assembly.lumping_weights(N, scheme["lumping"])
+    # The liquid equation's weights and test functions: w and N, or N_hat for both.
+    if scheme["liquid_basis"] == "blended":
+        bl = assembly.interpolation(grid, st["x0"] if small else x, blended=True)
+        wl, Nl, dNl = bl.N, bl.N, bl.dNdx
+    else:
+        wl, Nl, dNl = w, N, dN
     ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
     npnt, nen = N.shape
     C = np.empty((npnt, nen, 12))
     C[..., 0] = w * ms[:, None]
-    C[..., 1] = w * ml[:, None]
-    C[..., 2] = w * mt[:, None]
-    C[..., 3] = w * (drag * V)[:, None]
+    C[..., 1] = wl * ml[:, None]                # the liquid's weights throughout
+    C[..., 2] = wl * mt[:, None]
+    C[..., 3] = wl * (drag * V)[:, None]
     C[..., 4:6] = (w * ms[:, None])[..., None] * vs[:, None, :]
-    C[..., 6:8] = (w * ml[:, None])[..., None] * vl[:, None, :]
+    C[..., 6:8] = (wl * ml[:, None])[..., None] * vl[:, None, :]
     sxx, syy, sxy = (sig[:, 0] - pp) * V, (sig[:, 1] - pp) * V, sig[:, 2] * V
     C[..., 8] = -(dN[..., 0] * sxx[:, None] + dN[..., 1] * sxy[:, None])
     C[..., 9] = -(dN[..., 0] * sxy[:, None] + dN[..., 1] * syy[:, None])
-    C[..., 10:12] = dN * (pp * V)[:, None, None]
+    C[..., 10:12] = dNl * (pp * V)[:, None, None]
     C[..., 8:10] += (N * (ms + ml)[:, None])[..., None] * gvec
-    C[..., 10:12] += (N * mt[:, None])[..., None] * gvec
+    C[..., 10:12] += (Nl * mt[:, None])[..., None] * gvec
     G = np.bincount((nodes[..., None] * 12 + np.arange(12)).ravel(), weights=C.ravel(),
                     minlength=ng * 12).reshape(-1, 12)
     Ms, Ml, Mt, Q = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
 
     def inv(M):
-        return np.divide(1.0, M, out=np.zeros_like(M), where=Ms > 0)
+        return np.divide(1.0, M, out=np.zeros_like(M), where=M > 0)
 
     vs_n, vl_n = G[:, 4:6] * inv(Ms)[:, None], G[:, 6:8] * inv(Ml)[:, None]
     fm = G[:, 8:10].copy()
@@ -79,20 +87,37 @@ def _reference_step(grid, p, lumping, bcs, traction, st, dt, load_factor, dampin
     as_[fs], vs_n[fs], al[fl], vl_n[fl] = 0.0, 0.0, 0.0, 0.0
     Hn = np.hstack([as_, al, vs_n + dt * as_, vl_n + dt * al])[nodes]
     at = np.einsum("pa,paf->pf", N, Hn)
+    at[:, 2:4] = np.einsum("pa,paf->pf", Nl, Hn[..., 2:4])
+    at[:, 6:8] = np.einsum("pa,paf->pf", Nl, Hn[..., 6:8])
     vs[:] = flip * (vs + dt * at[:, 0:2]) + (1 - flip) * at[:, 4:6]
     vl[:] = flip * (vl + dt * at[:, 2:4]) + (1 - flip) * at[:, 6:8]
     Ls = np.einsum("pai,paj->pij", Hn[..., 4:6], dN)
-    div_l = np.einsum("pai,pai->p", Hn[..., 6:8], dN)
+    # Relative motion in the liquid's basis: div v_s + n div(v_l - v_s).
+    div_w = np.einsum("pai,pai->p", Hn[..., 6:8] - Hn[..., 4:6], dNl)
     eps = np.stack([Ls[:, 0, 0], Ls[:, 1, 1], Ls[:, 0, 1] + Ls[:, 1, 0]], axis=1)
     sig += dt * eps @ D.T
     div_s = Ls[:, 0, 0] + Ls[:, 1, 1]
-    pp -= dt * p.K_l / n * ((1 - n) * div_s + n * div_l)
+    dp = dt * p.K_l / n * (div_s + n * div_w)
     x += dt * at[:, 4:6]
     J *= 1 + dt * div_s
+    if scheme["pressure_projection"] == "nodal":
+        # Lumped projection onto the nodes, back at the points' new positions.
+        num = np.bincount(nodes.ravel(), weights=(w * (V * dp)[:, None]).ravel(), minlength=ng)
+        den = np.bincount(nodes.ravel(), weights=(w * V[:, None]).ravel(), minlength=ng)
+        back = it if small else assembly.interpolation(grid, x)
+        dp = np.einsum("pa,pa->p", back.N, (num * inv(den))[back.nodes])
+    pp -= dp
 
 
 CASES = [
     dict(element="q4", cells="4,40"),
+    dict(element="q4", cells="4,40", kinematics="large", pressure_projection="none"),
+    dict(element="q9", cells="3,30", ppc=3, kinematics="large", pressure_projection="nodal",
+         flip=0.5),
+    dict(element="q8", cells="3,30", ppc=3, kinematics="large", liquid_basis="element"),
+    dict(element="q9", cells="3,30", ppc=3, liquid_basis="blended", gravity=9.81),
+    dict(element="q8", cells="20,200", ppc=3, size="0.2,2", kinematics="large",
+         pressure_projection="nodal", gravity=9.81),          # several chunks, all options
     dict(element="q4", cells="4,40", gravity=9.81, flip=0.5, damping=0),
     dict(element="q4", cells="4,40", lumping="hrz", gravity=9.81, ppc=3),
     dict(element="q8", cells="3,30", ppc=3, gravity=9.81),
@@ -109,35 +134,41 @@ def test_step_matches_reference(opts):
     p = _params(**opts)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
     points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", twophase.POINT_FIELDS)
-    lumping = assembly.default_lumping(p.element) if p.lumping == "auto" else p.lumping
+    scheme = assembly.step_scheme(p)
     bcs = eigen.boundary_conditions(p)
     rng = np.random.default_rng(7)
-    with points.fields("x", "vs", "vl", "stress", "p", "J") as (x, vs, vl, sig, pp, J):
+    with points.fields("x", "x0", "vs", "vl", "stress", "p", "J") as (x, x0, vs, vl, sig, pp,
+                                                                       J):
         n = len(J)
-        # Moved by up to a third of a cell (many points change cell), kept inside the body.
-        x += (rng.random((n, 2)) - 0.5) * 0.6 * np.array(grid.h)
+        # Moved by up to a third of a cell (many points change cell), kept inside the body;
+        # the reference positions x0 a little less.
+        step = (rng.random((n, 2)) - 0.5) * 0.6 * np.array(grid.h)
+        x0[:] = np.clip(x + 0.5 * step, 1e-9, np.array(p.size) - 1e-9)
+        x += step
         np.clip(x, 1e-9, np.array(p.size) - 1e-9, out=x)
         vs[:] = rng.normal(size=(n, 2)) * 1e-3
         vl[:] = rng.normal(size=(n, 2)) * 1e-3
         sig[:] = rng.normal(size=(n, 3)) * 1e3
         pp[:] = 5e3 + rng.normal(size=n) * 1e3
         J[:] = 1.0
-    ref = dict(zip(("x", "V", "vs", "vl", "sig", "pp", "J"),
-                   points.get("x", "volume", "vs", "vl", "stress", "p", "J")))
-    model = twophase.TwoPhase(grid, points, p, bcs, lumping)
+    ref = dict(zip(("x", "x0", "V", "vs", "vl", "sig", "pp", "J"),
+                   points.get("x", "x0", "volume", "vs", "vl", "stress", "p", "J")))
+    model = twophase.TwoPhase(grid, points, p, bcs, scheme)
     dt = 1e-6
     for k in range(3):
         if k == 2:
             # Some points jump into the next cell up between steps (kept node numbers and
             # bincount index must follow).
-            with points.fields("x") as x:
+            with points.fields("x", "x0") as (x, x0):
                 move = np.arange(len(x)) % 5 == 0
-                x[move, 1] = np.minimum(x[move, 1] + grid.h[1], p.size[1] - 1e-9)
+                for y in (x, x0):
+                    y[move, 1] = np.minimum(y[move, 1] + grid.h[1], p.size[1] - 1e-9)
                 ref["x"][:] = x
+                ref["x0"][:] = x0
         ramp = 0.5 + 0.25 * k
         model.step(dt, ramp, p.damping, p.flip)
         model.migrate_if_needed((0, 0))
-        _reference_step(grid, p, lumping, bcs, model.traction, ref, dt, ramp, p.damping, p.flip)
+        _reference_step(grid, p, scheme, bcs, model.traction, ref, dt, ramp, p.damping, p.flip)
     got = dict(zip(("x", "vs", "vl", "sig", "pp", "J"),
                    points.get("x", "vs", "vl", "stress", "p", "J")))
     for key, value in got.items():
