@@ -66,7 +66,9 @@ class TwoPhase:
     functions, node numbers and work arrays are kept between steps and rebuilt when the
     swarm changed (its ``generation``). Code that changes the points' volumes between steps
     needs no notice (they are read every step); code that resizes or migrates the swarm must
-    go through ``MaterialPoints`` (it bumps the generation)."""
+    go through ``MaterialPoints`` (it bumps the generation). The reference positions x0 are
+    constants of the run: with small kinematics a one-pass model evaluates its shape
+    functions once."""
 
     def __init__(self, grid, points, p, bcs, scheme):
         self.grid, self.points, self.p = grid, points, p
@@ -206,6 +208,8 @@ class TwoPhase:
         self._t1 = np.empty(m)
         self._t1b = np.empty(m)
         self._t1c = np.empty(m)
+        # Small kinematics in one pass: the rows at x0 are constants, computed once.
+        self._kept = False
         self._gen = pts.generation
 
     # -- one step --------------------------------------------------------------------------
@@ -325,6 +329,9 @@ class TwoPhase:
         e - s columns); returns (W, nodes, base, same), ``base`` the cells' first node and
         ``same`` whether the cells are those of the kept bincount index (one-pass model)."""
         m = e - s
+        if whole and self._kept:
+            return self.W[:, :, :m], self.nodes[:, :m], self._base[:m], True
+        self._kept = whole and self.small
         # Cells as Grid.locate finds them (floor(x / h), clipped to the grid; NaN gives cell
         # 0 there and here) and the local coordinates t = x / h - cell in them (the natural
         # coordinates are 2 t - 1).
@@ -351,6 +358,7 @@ class TwoPhase:
         """Points s:e to grid: (lo, span, sums), sums of the nf fields (field-major) over
         the ghosted-local nodes lo:lo+span (all of them when ``whole``)."""
         m, nen, nf = e - s, self._nen, self.nf
+        kept = whole and self._kept
         W, nodes, base, same = self._interpolate(s, e, whole)
         Wl = self.Wl[:, :, :m]
 
@@ -359,7 +367,7 @@ class TwoPhase:
         # (field 9) with a blended liquid basis, whose N_hat is then w_l and N_l.
         V, pp, sig = self.V[s:e], self.pp[s:e], self.sig[s:e]
         C = self._C[:nf * nen * m].reshape(nf, nen, m)
-        w = self._weights(W, m)
+        w = self._weights(W, m, kept)
         Kw, T, t1 = self._Kw[:, :m], self._T[:, :m], self._t1[:m]
         np.multiply(self.vs[s:e].T, V, out=Kw[0:2])
         np.multiply(self.vl[s:e].T, V, out=Kw[2:4])
@@ -400,12 +408,14 @@ class TwoPhase:
             np.add(nodes, self._frow * span - lo, out=idx)
         return lo, span, np.bincount(idx.ravel(), weights=C.ravel(), minlength=nf * span)
 
-    def _weights(self, W, m):
-        """Lumping weights w (nen, m) of the chunk's points from its rows W."""
+    def _weights(self, W, m, kept=False):
+        """Lumping weights w (nen, m) of the chunk's points from its rows W (``kept``: those
+        computed last time, for the same rows)."""
         if not self.hrz:
             return W[0]
         w = self._w[:, :m]
-        np.copyto(w, assembly.lumping_weights(W[0].T, self.lumping).T)
+        if not kept:
+            np.copyto(w, assembly.lumping_weights(W[0].T, self.lumping).T)
         return w
 
     def _nodal(self, G, O, dt, load_factor, damping):

@@ -28,7 +28,8 @@ MEASURE_TV = (0.5, 1.0)
 # What the measured error depends on besides the discretization: it must match.
 SCENE_KEYS = ("E", "nu", "rho_s", "rho_l", "porosity", "K_l", "mu_l", "k", "size", "gravity",
               "drained", "bc_left", "bc_right", "bc_bottom", "bc_top", "damping", "flip",
-              "lumping", "load_ramp", "points")
+              "lumping", "kinematics", "pressure_projection", "liquid_basis", "load_ramp",
+              "points")
 # What the target picks.
 PICKED = ("element", "cells", "ppc", "dt_safety")
 
