@@ -98,30 +98,36 @@ def test_outputs_open(mesh_runs):
     assert "Critical time steps" in res.stdout and "Tables 4 and 5" in res.stdout
 
 
-def test_q9_no_worse_than_paper(cli):
-    s = check_ok(cli(["-mpm_progress", "0", "-mpm_figures", "0"], ranks=2, timeout=600,
-                     options_file="consolidation-m1-q9"))
+@pytest.mark.parametrize("case", ["m1-q8", "m1-q9"])
+def test_table4_quadratic_no_worse_than_paper(cli, case):
+    s = check_ok(cli(["-mpm_progress", "0", "-mpm_figures", "0"], ranks=2, timeout=900,
+                     options_file=f"consolidation-{case}"))
     err = dict(zip(s["monitor"]["Tv"], s["monitor"]["error_pct"]))
     assert abs(err[0.02]) <= 3.0
-    assert abs(err[0.5]) <= PAPER_ERRORS["m1-q9"][0]
-    assert abs(err[1.0]) <= PAPER_ERRORS["m1-q9"][1]
+    assert abs(err[0.5]) <= PAPER_ERRORS[case][0]
+    assert abs(err[1.0]) <= PAPER_ERRORS[case][1]
+    depth = 1.0 - s["monitor"]["height"]
+    for Tv, ref in zip(s["monitor"]["Tv"], s["monitor"]["terzaghi"]):
+        assert ref == pytest.approx(terzaghi(depth, Tv), rel=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason="Q8 (HRZ lumping) shows a pressure oscillation "
-                   "across each cell; its T_v = 0.5 error exceeds the paper's (open)")
-def test_q8_no_worse_than_paper(cli):
-    s = check_ok(cli(["-mpm_progress", "0", "-mpm_figures", "0", "-mpm_Tv_end", "0.5",
-                      "-mpm_Tv_report", "0.5"], ranks=2, timeout=600,
-                     options_file="consolidation-m1-q8"))
-    assert abs(s["monitor"]["error_pct"][0]) <= PAPER_ERRORS["m1-q8"][0]
+# Every scheme option, on 1 and 2 ranks: the pressure projection's ghost exchange, the
+# blended liquid basis, moving points that migrate between ranks.
+SCHEMES = [("m2-q4", 2, []), ("m1-q9", 2, []), ("m1-q4", 3, []), ("m2-q4", 4, []),
+           ("m1-q8", 2, []),
+           ("m1-q4", 2, ["-mpm_kinematics", "large"]),
+           ("m2-q4", 2, ["-mpm_kinematics", "large", "-mpm_pressure_projection", "none"]),
+           ("m1-q9", 2, ["-mpm_kinematics", "large", "-mpm_pressure_projection", "nodal"]),
+           ("m1-q8", 2, ["-mpm_kinematics", "large", "-mpm_liquid_basis", "element"]),
+           ("m1-q9", 2, ["-mpm_liquid_basis", "blended", "-mpm_gravity", "9.81"])]
 
 
-@pytest.mark.parametrize("case,ranks", [("m2-q4", 2), ("m1-q9", 2), ("m1-q4", 3),
-                                        ("m2-q4", 4)])
-def test_one_and_more_ranks_agree(cli, tmp_path, case, ranks):
+@pytest.mark.parametrize("case,ranks,extra", SCHEMES,
+                         ids=["-".join([c, str(r), *e[1::2]]) for c, r, e in SCHEMES])
+def test_one_and_more_ranks_agree(cli, tmp_path, case, ranks, extra):
     """Including more ranks than cells across (the 1-cell-wide column on 3 ranks)."""
     args = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05", "-mpm_progress", "0",
-            "-mpm_figures", "0"]
+            "-mpm_figures", "0", *extra]
     a = check_ok(cli(args, ranks=1, options_file=f"consolidation-{case}",
                      out_dir=tmp_path / "n1"))
     b = check_ok(cli(args, ranks=ranks, options_file=f"consolidation-{case}",
@@ -152,11 +158,21 @@ def _stable(cli, tmp_path, case, dt, extra, name):
     return res.returncode == 0
 
 
-@pytest.mark.parametrize("case", ["m1-q4", "m2-q4", "m1-q9"])
-def test_discrete_limit_is_sharp(cli, tmp_path, case):
-    lim = _limits(cli, tmp_path, case, [])["discrete"]
-    assert _stable(cli, tmp_path, case, 0.97 * lim, [], "below")
-    assert not _stable(cli, tmp_path, case, 1.03 * lim, [], "above")
+LIMITS = [("m1-q4", []), ("m2-q4", []), ("m1-q9", []), ("m1-q8", []),
+          ("m1-q4", ["-mpm_pressure_projection", "none"]),
+          ("m2-q4", ["-mpm_pressure_projection", "none"]),
+          ("m1-q9", ["-mpm_pressure_projection", "nodal"]),
+          ("m1-q8", ["-mpm_pressure_projection", "nodal"]),
+          ("m1-q9", ["-mpm_liquid_basis", "blended"])]
+
+
+@pytest.mark.parametrize("case,extra", LIMITS,
+                         ids=["-".join([c, *e[1::2]]) for c, e in LIMITS])
+def test_discrete_limit_is_sharp(cli, tmp_path, case, extra):
+    """The measured limit lies within 3 % of the computed one, for every scheme option."""
+    lim = _limits(cli, tmp_path, case, extra)["discrete"]
+    assert _stable(cli, tmp_path, case, 0.97 * lim, extra, "below")
+    assert not _stable(cli, tmp_path, case, 1.03 * lim, extra, "above")
 
 
 def test_drag_limit_is_sharp(cli, tmp_path):
@@ -195,6 +211,8 @@ def test_second_parameter_set(cli):
     ("-mpm_porosity", "0"), ("-mpm_porosity", "1"), ("-mpm_k", "0"), ("-mpm_k", "-1e-4"),
     ("-mpm_K_l", "0"), ("-mpm_dt", "0"), ("-mpm_dt", "-1e-5"), ("-mpm_monitor_height", "1.5"),
     ("-mpm_monitor_height", "-0.1"), ("-mpm_Tv_report", "0.5,,1"), ("-mpm_damping", "1"),
+    ("-mpm_kinematics", "finite"), ("-mpm_pressure_projection", "yes"),
+    ("-mpm_liquid_basis", "q4"),
 ])
 def test_bad_input(cli, tmp_path, option, value):
     out = tmp_path / "never"
