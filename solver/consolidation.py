@@ -178,6 +178,12 @@ def run(p, comm) -> int:
                     f"Scheme: {scheme['kinematics']} kinematics, lumping {scheme['lumping']}, "
                     f"liquid basis {scheme['liquid_basis']}, pressure projection "
                     f"{scheme['pressure_projection']}", comm=comm)
+    if p.element != "q4" and p.ppc < 3:
+        # Measured on 1 x 20 cells (docs/studies.md): Q9 with 2 x 2 points was 10 % off
+        # Terzaghi (0.4 % with 3 x 3); Q8's stable time step shrank a hundredfold.
+        PETSc.Sys.Print(f"WARNING: {p.element.upper()} cells with {p.ppc} x {p.ppc} points "
+                        "under-integrate the quadratic fields: use -mpm_ppc 3 or more",
+                        comm=comm)
 
     model = TwoPhase(grid, points, p, bcs, scheme)
     q = load_scale(p)
