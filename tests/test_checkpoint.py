@@ -22,13 +22,17 @@ def _same(a, b, rtol=1e-12):
     assert a["steps"] == b["steps"] and a["dt"] == b["dt"]
 
 
-@pytest.mark.parametrize("first,second", [(1, 2), (2, 1)])
-def test_restart_on_other_rank_count_matches_uninterrupted(cli, tmp_path, first, second):
-    end = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05"]
+@pytest.mark.parametrize("first,second,extra", [
+    (1, 2, []), (2, 1, []), (2, 1, ["-mpm_kinematics", "large"]),
+    (1, 2, ["-mpm_element", "q8", "-mpm_ppc", "3"])])
+def test_restart_on_other_rank_count_matches_uninterrupted(cli, tmp_path, first, second,
+                                                           extra):
+    """With either kinematics (points located by x0 or by x) and the Q8 scheme."""
+    end = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05", *extra]
     full = check_ok(cli(SCENE + end, ranks=1, options_file="consolidation-m2-q4",
                         out_dir=tmp_path / "full"))
-    part = cli(SCENE + ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02",
-                        "-mpm_checkpoint_every", "700"],
+    part = cli(SCENE + extra + ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02",
+                                "-mpm_checkpoint_every", "700"],
                ranks=first, options_file="consolidation-m2-q4", out_dir=tmp_path / "part")
     ckpt = tmp_path / "part" / "checkpoint.npz"
     assert part.returncode == 0 and ckpt.is_file()
