@@ -21,6 +21,13 @@ One step, with every nodal quantity lumped (a diagonal):
 Porosity, volumes and masses stay at their initial values (small strain: the paper neglects
 spatial variation of density and porosity, and the analytic references are linear).
 
+Scheme options (``assembly.step_scheme``, docs/method.md): shape functions at the points'
+initial positions x0 (small kinematics) or current ones (large); pore-pressure increments
+kept per point or projected through the nodes; the liquid equation in the element's basis or
+in the blended basis N_hat = N/2 + N_Q4/2 (Q8), which then also gives its masses and drag
+(a tenth nodal field S_l = sum N_hat V), its velocity transfers and the relative motion in
+the storage equation, dp = -(K_l / n) [div v_s + n div_hat(v_l - v_s)] dt.
+
 Performance (docs/performance.md): points are processed in chunks of CHUNK, so that the
 work arrays of a pass stay in cache and the memory is bounded whatever the model size; all
 work arrays are allocated once and reused (re-allocated only when the swarm changed, after a
@@ -128,7 +135,6 @@ class TwoPhase:
         self._offl = (off[:, 1] - grid.gys) * grid.gxm + (off[:, 0] - grid.gxs)
         self._offl_min, self._offl_max = int(self._offl.min()), int(self._offl.max())
         self._frow = np.arange(self.nf, dtype=np.int64)[:, None, None]
-        self._corners = shapes.corners(grid.element)
         self._invS = np.zeros(self.nown)            # 1 / S of the owned nodes, this step
         # Partitioned directions and this rank's box of cells in cell units (+-inf at the
         # ends of the grid, where locate clips), for the cheap "does any point leave" test.
