@@ -484,7 +484,10 @@ class TwoPhase:
         solid, a_s = f_m / M_s on a held liquid. Backward Euler on the drag is unconditionally
         stable: no 2/lambda limit."""
         Ms, Ml, Mt, Q = self.c_s * S, self.c_l * Sl, self.c_t * Sl, self.c_q * Sl
-        held_s, held_l = self.fixed_s.T, self.fixed_l.T           # (2, nown)
+        # A node without positive mass of a phase (no points, or negative Q9 row sums of an
+        # irregular state) holds that phase, as the explicit step's 1/S = 0 there does.
+        held_s = self.fixed_s.T | (S <= 0)                       # (2, nown)
+        held_l = self.fixed_l.T | (Sl <= 0)
         vs = np.where(held_s, 0.0, vs_n)
         vl = np.where(held_l, 0.0, vl_n)
         Mm = Ms + Ml
@@ -495,10 +498,10 @@ class TwoPhase:
         a_s, a_l = O[0:2], O[2:4]
         np.multiply(fm - Ml * b, inv_m, out=a_s)
         np.add(a_s, b, out=a_l)
-        alone_l = (Mt + Q * dt) > 0
-        a_l[:] = np.where(held_s, np.divide(r, Mt + Q * dt, out=np.zeros_like(r),
-                                            where=alone_l), a_l)
-        a_s[:] = np.where(held_l, np.divide(fm, Ms, out=np.zeros_like(fm), where=Ms > 0), a_s)
+        alone_l = np.divide(r, Mt + Q * dt, out=np.zeros_like(r), where=Sl > 0)
+        alone_s = np.divide(fm, Ms, out=np.zeros_like(fm), where=S > 0)
+        a_l[:] = np.where(held_l, 0.0, np.where(held_s, alone_l, a_l))
+        a_s[:] = np.where(held_s, 0.0, np.where(held_l, alone_s, a_s))
 
     def _g2p(self, s, e, whole, dt, flip):
         """Grid to points s:e: velocities, stress, pore pressure, positions, volume ratio."""
