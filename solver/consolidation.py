@@ -390,7 +390,8 @@ def _check_feasible(p, scheme):
         ways.append(f"-mpm_drag implicit: {_estimated_steps(p, 'implicit', S):.3g}")
     if p.mass_scaling != "auto" and p.damping > 0:
         S_auto = inertia.auto_factor(p)
-        ways.append(f"-mpm_drag implicit -mpm_mass_scaling auto (S = {S_auto:.3g}): "
+        ways.append(("-mpm_drag implicit " if drag == "explicit" else "")
+                    + f"-mpm_mass_scaling auto (S = {S_auto:.3g}): "
                     f"{_estimated_steps(p, 'implicit', S_auto):.3g}")
     raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {steps:.3g} steps to "
                      f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}"
