@@ -103,6 +103,10 @@ def run(p, comm) -> int:
     grid = Grid(comm, p.element, p.cells, p.size)
     points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
     restart = checkpoint.read(p.restart, p) if p.restart else None
+    if restart is not None:
+        # auto depends on the earliest report time, which a restart may change: keep the
+        # factor the run started with (the signature has checked everything else).
+        S = scheme["mass_scaling"] = restart[2].get("mass_scaling", S)
     offset = mpi.exscan(points.n_local) or 0
     with points.fields("x", "x0", "monitor", "id", "J") as (x, x0, mon, ids, J):
         ids[:] = offset + np.arange(len(ids))     # global numbers, for messages
@@ -233,8 +237,8 @@ def run(p, comm) -> int:
     last_ckpt = time.perf_counter()
 
     def state(step):
-        return {"step": step, "dt": dt, "history": history, "reports": reports,
-                "profiles": profiles, "series": series.entries}
+        return {"step": step, "dt": dt, "mass_scaling": S, "history": history,
+                "reports": reports, "profiles": profiles, "series": series.entries}
 
     try:
         for k in range(first, nsteps + 1):
