@@ -9,8 +9,10 @@ and two more that decide stability in practice:
 - ``drag``       2 / lambda, lambda = (n g / k)(1 + n rho_l / ((1 - n) rho_s)): forward Euler
                  on the explicit drag, which damps the relative velocity at the rate lambda
                  (no limit with -mpm_drag implicit)
-- ``discrete``   2 / omega_max, omega_max^2 the largest eigenvalue of the undrained stiffness
-                 against the lumped mixture mass of the actual grid, points and element
+- ``discrete``   the stability limit of the linearised step itself (``discrete_limit``), with
+                 either drag treatment
+With -mpm_mass_scaling S every inertia is S times larger: the wave limits grow as sqrt(S),
+the drag limit as S.
 """
 
 from __future__ import annotations

@@ -12,9 +12,11 @@ One step, with every nodal quantity lumped (a diagonal):
    the liquid force f_l = sum p grad(N) V (2) (+ gravity). Per point and node they are
    w, dN/dx or dN/dy times per-point coefficients, summed over the nodes by one np.bincount
    and, over the ranks, by one localToGlobal(ADD) of a ghosted 9-field Vec.
-2. Nodal accelerations (eqs. 13, 14), pointwise: a_l = (f_l - Q (v_l - v_s)) / M~_l,
-   a_s = (f_m - M_l a_l) / M_s; optional local damping; fixed DOFs held; then
-   v^{k+1} = v^k + dt a^k (eq. 6).
+2. Nodal accelerations (eqs. 13, 14), pointwise: explicit drag a_l = (f_l - Q (v_l - v_s))
+   / M~_l, a_s = (f_m - M_l a_l) / M_s, or implicit drag (backward Euler on the relative
+   velocity, a closed-form 2 x 2 solve per node and direction, ``_implicit_drag``);
+   optional local damping; fixed DOFs held; then v^{k+1} = v^k + dt a^k (eq. 6). Mass
+   scaling (-mpm_mass_scaling S) multiplies every inertia (M_s, M_l, M~_l) by S.
 3. Grid to points: point velocities (FLIP, or a FLIP/PIC blend), strain rate from the nodal
    v_s^{k+1}, effective stress by linear elasticity, pore pressure from eqs. 8-9
    (dp = -K_l / n [(1 - n) div v_s + n div v_l] dt), positions x += dt v_s^{k+1}.
