@@ -144,7 +144,7 @@ def test_regime_printed_and_warning(cli, tmp_path):
     assert reg["wave_period_s"] == pytest.approx(T_w, rel=1e-9)
     assert reg["consolidation_time_s"] == pytest.approx(T_c, rel=1e-9)
     assert reg["mass_scaling"] == 1.0 and s["mass_scaling"] == 1.0
-    assert "Pi = 58.6" in res.stdout
+    assert "Pi = 58.59" in res.stdout
     assert "WARNING: inertia biases p at T_v = 0.05" in res.stdout
     assert any("inertia" in w for w in s["warnings"])
     # The measured bias is indeed visible (more than 1 % of q) ...
