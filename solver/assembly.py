@@ -60,13 +60,19 @@ def default_lumping(element: str) -> str:
 
 def step_scheme(p) -> dict:
     """The explicit step's discretisation choices, with ``auto`` resolved per element: the
-    most accurate measured (docs/studies.md, "Quadratic cells")."""
+    most accurate measured (docs/studies.md, "Quadratic cells"); the drag treatment and the
+    mass scaling factor S (a number, ``auto`` resolved by :func:`solver.inertia.scaling`)."""
     e = p.element
     auto = {"lumping": default_lumping(e),
             "kinematics": "small",
             "pressure_projection": "nodal" if e == "q4" else "none",
             "liquid_basis": "blended" if e == "q8" else "element"}
-    return {k: auto[k] if getattr(p, k) == "auto" else getattr(p, k) for k in auto}
+    scheme = {k: auto[k] if getattr(p, k) == "auto" else getattr(p, k) for k in auto}
+    from . import inertia   # it needs the wave speeds, which need this module
+
+    scheme["drag"] = p.drag
+    scheme["mass_scaling"] = inertia.scaling(p)
+    return scheme
 
 
 def elasticity(E: float, nu: float) -> np.ndarray:

@@ -65,7 +65,9 @@ def read(path, p):
                          f"this solver reads {VERSION}")
     if sig != signature(p):
         mine, theirs = json.loads(signature(p)), json.loads(sig)
-        diff = sorted(k for k in set(mine) | set(theirs) if mine.get(k) != theirs.get(k))
+        # Compared as JSON: NaN (an unset -mpm_dt) differs from itself as a float.
+        diff = sorted(k for k in set(mine) | set(theirs)
+                      if json.dumps(mine.get(k)) != json.dumps(theirs.get(k)))
         raise InputError(f"-mpm_restart {path}: written for other options "
                          f"(-mpm_{diff[0]} differs)")
     if fields.ndim != 2 or fields.shape[1] != sum(layout.values()):

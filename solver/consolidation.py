@@ -19,14 +19,14 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (analytic, assembly, checkpoint, eigen, jacobi, memory, output, timestep,
-               workprecision)
+from . import (analytic, assembly, checkpoint, eigen, inertia, jacobi, memory, output,
+               timestep, workprecision)
 from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
 from .twophase import POINT_FIELDS, TwoPhase
 
-MAX_STEPS = 1e9
+MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
 
 
@@ -90,6 +90,8 @@ def run(p, comm) -> int:
         goal = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
                                                           workprecision.PICKED},
                   "measured_pct": choice["measure"], "why": lines}
+    scheme = assembly.step_scheme(p)
+    _check_feasible(p, scheme)
     memory.check(p, comm)
     t_wall = time.perf_counter()
     mpi = comm.tompi4py()
@@ -97,10 +99,14 @@ def run(p, comm) -> int:
 
     H = p.size[1]
     bcs = eigen.boundary_conditions(p)
-    scheme = assembly.step_scheme(p)
+    S = scheme["mass_scaling"]
     grid = Grid(comm, p.element, p.cells, p.size)
     points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
     restart = checkpoint.read(p.restart, p) if p.restart else None
+    if restart is not None:
+        # auto depends on the earliest report time, which a restart may change: keep the
+        # factor the run started with (the signature has checked everything else).
+        S = scheme["mass_scaling"] = restart[2].get("mass_scaling", S)
     offset = mpi.exscan(points.n_local) or 0
     with points.fields("x", "x0", "monitor", "id", "J") as (x, x0, mon, ids, J):
         ids[:] = offset + np.arange(len(ids))     # global numbers, for messages
@@ -137,19 +143,22 @@ def run(p, comm) -> int:
         dt_discrete, patch = timestep.discrete_limit(comm, p, scheme)
     else:
         dt_discrete, patch = math.nan, p.cells
-    limits = timestep.criteria(p, f1, dt_discrete, grid)
+    limits = timestep.criteria(p, f1, dt_discrete, grid.h, S)
     limits = {k: v for k, v in limits.items() if not math.isnan(v)}
     stage.pop()
-    smallest = min(limits, key=limits.get)
+    smallest = _governing(limits, scheme["drag"])
     # Rounded down to 3 significant digits: the limits come from iterative eigensolvers whose
     # last digits vary with the number of ranks, and the run should not.
     dt = p.dt if not math.isnan(p.dt) else _round_down(p.dt_safety * limits[smallest], 3)
     if restart is not None:
         dt = restart[2]["dt"]
-    exceeded = [k for k, v in limits.items() if dt > v]
-    speeds = timestep.wave_speeds(p)
-    _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch)
-    stability = {k: limits[k] for k in ("undrained", "drag", "discrete") if k in limits}
+    exceeded = [k for k, v in limits.items() if dt > v
+                and (k != "drag" or scheme["drag"] == "explicit")]
+    speeds = timestep.wave_speeds(p, S)
+    _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme)
+    regime = inertia.regime(p, S)
+    PETSc.Sys.Print(inertia.describe(regime), comm=comm)
+    stability = timestep.stability_limits(limits, scheme["drag"])
     worst = max(stability, key=lambda k: dt / stability[k])
     if dt > 2 * stability[worst] and not p.allow_unstable:
         raise InputError(f"-mpm_dt {dt:.4g}: {dt / stability[worst]:.1f} x the {worst} "
@@ -167,6 +176,9 @@ def run(p, comm) -> int:
     if not t_end / dt < MAX_STEPS:
         raise InputError(f"-mpm_Tv_end {p.Tv_end}: {t_end / dt:.3g} steps of {dt:.3g} s; "
                          f"more than {MAX_STEPS:.0e} is not a run that finishes")
+    warn = inertia.warning(regime)
+    if warn:
+        PETSc.Sys.Print(warn, comm=comm)
     nsteps = int(math.ceil(t_end / dt - 1e-9))
     report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in p.Tv_report}
     iso_steps = {int(round(tv * H * H / (cv * dt))): tv
@@ -177,7 +189,8 @@ def run(p, comm) -> int:
                     f"{nsteps} steps of {dt:.4g} s; monitor at y = {monitor_height:.5g} m\n"
                     f"Scheme: {scheme['kinematics']} kinematics, lumping {scheme['lumping']}, "
                     f"liquid basis {scheme['liquid_basis']}, pressure projection "
-                    f"{scheme['pressure_projection']}", comm=comm)
+                    f"{scheme['pressure_projection']}, {scheme['drag']} drag, mass scaling "
+                    f"S = {S:.4g} ({p.mass_scaling})", comm=comm)
     if p.element != "q4" and p.ppc < 3:
         # Measured on 1 x 20 cells (docs/studies.md): Q9 with 2 x 2 points was 10 % off
         # Terzaghi (0.4 % with 3 x 3); Q8's stable time step shrank a hundredfold.
@@ -210,7 +223,10 @@ def run(p, comm) -> int:
                "dt_critical": limits, "dt_governing": smallest, "dt_exceeds": exceeded,
                **scheme, "damping": p.damping, "flip": p.flip,
                "f1_hz": f1, "c_v": cv, "c2": c2,
-               "p0_consistent_over_q": p0, "scene": workprecision.scene_signature(p)}
+               "p0_consistent_over_q": p0, "regime": regime,
+               "scene": workprecision.scene_signature(p)}
+    if warn:
+        summary["warnings"] = [warn]
     if goal is not None:
         summary["target"] = goal
     summary_path = p.summary or os.path.join(p.output, "summary.json")
@@ -221,8 +237,8 @@ def run(p, comm) -> int:
     last_ckpt = time.perf_counter()
 
     def state(step):
-        return {"step": step, "dt": dt, "history": history, "reports": reports,
-                "profiles": profiles, "series": series.entries}
+        return {"step": step, "dt": dt, "mass_scaling": S, "history": history,
+                "reports": reports, "profiles": profiles, "series": series.entries}
 
     try:
         for k in range(first, nsteps + 1):
@@ -345,13 +361,60 @@ def _report(Tv, t, points, mpi, p, height, cv, c2, p0, prof):
     return r
 
 
-def _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch):
-    notes = {"cfl": f"L/c, c = {speeds['c']:.2f} m/s",
-             "undrained": f"L/c1, c1 = {speeds['c1']:.1f} m/s",
-             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4f} m2/s",
-             "oscillator": f"L/c3, c3 = 2 pi f1 H = {2 * np.pi * f1 * p.size[1]:.2f} m/s "
-                           f"(f1 = {f1:.2f} Hz)",
-             "drag": f"2/lambda, lambda = {timestep.drag_rate(p):.0f} 1/s",
+def _governing(limits: dict, drag: str) -> str:
+    """The criterion that sets dt: the smallest, the drag limit only with explicit drag."""
+    return min((k for k in limits if k != "drag" or drag == "explicit"), key=limits.get)
+
+
+def _estimated_steps(p, drag: str, S: float) -> float:
+    """Steps of the run from the closed-form criteria alone (a lower bound: the discrete
+    limit and the oscillator criterion can only lower dt)."""
+    H = p.size[1]
+    h = [p.size[d] / p.cells[d] for d in (0, 1)]
+    limits = timestep.criteria(p, math.nan, math.nan, h, S)
+    limits = {k: v for k, v in limits.items() if not math.isnan(v)}
+    dt = p.dt if not math.isnan(p.dt) else p.dt_safety * limits[_governing(limits, drag)]
+    return p.Tv_end * H * H / references(p)[0] / dt
+
+
+def _check_feasible(p, scheme):
+    """InputError, before anything is analysed or written, when the run would take more
+    than MAX_STEPS steps; it names the options that bring it down, and to how many."""
+    if p.restart:
+        return
+    drag, S = scheme["drag"], scheme["mass_scaling"]
+    steps = _estimated_steps(p, drag, S)
+    if steps <= MAX_STEPS:
+        return
+    if not math.isnan(p.dt):
+        raise InputError(f"-mpm_dt {p.dt:g}: {steps:.3g} steps to T_v = {p.Tv_end:g}, more "
+                         f"than {MAX_STEPS:.0e}; raise -mpm_dt or lower -mpm_Tv_end")
+    ways = []
+    if drag == "explicit":
+        ways.append(f"-mpm_drag implicit: {_estimated_steps(p, 'implicit', S):.3g}")
+    if p.mass_scaling != "auto" and p.damping > 0:
+        S_auto = inertia.auto_factor(p)
+        ways.append(("-mpm_drag implicit " if drag == "explicit" else "")
+                    + f"-mpm_mass_scaling auto (S = {S_auto:.3g}): "
+                    f"{_estimated_steps(p, 'implicit', S_auto):.3g}")
+    raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {steps:.3g} steps to "
+                     f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}"
+                     + ("; steps with " + "; with ".join(ways) if ways else
+                        "; shorten the run (-mpm_Tv_end) or coarsen the grid"))
+
+
+def _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme):
+    S = scheme["mass_scaling"]
+    scaled = "" if S == 1 else f", inertia scaled by S = {S:.4g}"
+    notes = {"cfl": f"L/c, c = {speeds['c']:.4g} m/s{scaled}",
+             "undrained": f"L/c1, c1 = {speeds['c1']:.4g} m/s{scaled}",
+             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4g} m2/s",
+             "oscillator": f"L/c3, c3 = 2 pi f1 H = "
+                           f"{2 * np.pi * f1 / np.sqrt(S) * p.size[1]:.4g} m/s "
+                           f"(f1 = {f1 / np.sqrt(S):.4g} Hz{scaled})",
+             "drag": f"2/lambda, lambda = {timestep.drag_rate(p, S):.4g} 1/s"
+                     + ("" if scheme["drag"] == "explicit"
+                        else " (no limit: the drag is implicit)"),
              "discrete": "stability limit of the linearised MPM step itself"
                          + ("" if tuple(patch) == tuple(p.cells)
                             else f" (found on a {patch[0]} x {patch[1]} cell patch)")}

@@ -62,6 +62,17 @@ def _at_least_one(v):
     return None if v >= 1 else "must be >= 1"
 
 
+def _scaling(v):
+    """-mpm_mass_scaling: none, auto or a finite number S > 0."""
+    if v in ("none", "auto"):
+        return None
+    try:
+        S = _parse_float(v)
+    except ValueError:
+        return "choose none, auto or a number S > 0"
+    return None if S > 0 else "must be none, auto or > 0"
+
+
 def _tolerance(v):
     return None if 0 < v < 1 else "must lie in (0, 1)"
 
@@ -152,6 +163,14 @@ SPEC = [
            "drag, forces and momentum): element (N), blended (N/2 + N_Q4/2, positive lumped "
            "weights), auto (blended for q8)", (CONSOLIDATION,),
            choices=("auto", "element", "blended")),
+    Option("drag", "str", "implicit", "drag of the liquid equation (eq. 14): implicit "
+           "(backward Euler on the relative velocity, node by node: no drag limit on dt), "
+           "explicit (forward, the paper's scheme: dt < 2/lambda)", (CONSOLIDATION,),
+           choices=("implicit", "explicit")),
+    Option("mass_scaling", "str", "none", "factor S on both phases' inertia (not on drag or "
+           "weight): none (S = 1), auto (the largest S whose inertia error at the earliest "
+           "report time stays within 0.2 % of q, docs/method.md), or a number S > 0; the "
+           "wave limits grow as sqrt(S)", (CONSOLIDATION,), _scaling),
     Option("checkpoint_every", "int", 0, "write OUTPUT/checkpoint.npz every N steps (0: never)",
            (CONSOLIDATION,), _nonnegative),
     Option("checkpoint_seconds", "float", 0.0, "also write it every S seconds of wall time",

@@ -8,8 +8,11 @@ Table 1's four criteria use the smallest cell length L_min:
 and two more that decide stability in practice:
 - ``drag``       2 / lambda, lambda = (n g / k)(1 + n rho_l / ((1 - n) rho_s)): forward Euler
                  on the explicit drag, which damps the relative velocity at the rate lambda
-- ``discrete``   2 / omega_max, omega_max^2 the largest eigenvalue of the undrained stiffness
-                 against the lumped mixture mass of the actual grid, points and element
+                 (no limit with -mpm_drag implicit)
+- ``discrete``   the stability limit of the linearised step itself (``discrete_limit``), with
+                 either drag treatment
+With -mpm_mass_scaling S every inertia is S times larger: the wave limits grow as sqrt(S),
+the drag limit as S.
 """
 
 from __future__ import annotations
@@ -35,16 +38,18 @@ def drag_coefficient(p) -> float:
     return p.porosity * p.mu_l / kappa
 
 
-def drag_rate(p) -> float:
-    """Decay rate (1/s) of the relative velocity w = v_l - v_s under the drag alone."""
+def drag_rate(p, S: float = 1.0) -> float:
+    """Decay rate (1/s) of the relative velocity w = v_l - v_s under the drag alone, with
+    both phases' inertia scaled by S (-mpm_mass_scaling; the drag is not)."""
     n = p.porosity
-    return n * G_REF / p.k * (1 + n * p.rho_l / ((1 - n) * p.rho_s))
+    return n * G_REF / p.k * (1 + n * p.rho_l / ((1 - n) * p.rho_s)) / S
 
 
-def wave_speeds(p) -> dict:
-    """Speeds c (drained), c1 (undrained) in m/s and the diffusivity c2 in m2/s."""
+def wave_speeds(p, S: float = 1.0) -> dict:
+    """Speeds c (drained), c1 (undrained) in m/s and the diffusivity c2 in m2/s, with the
+    inertia scaled by S (the speeds fall as 1/sqrt(S); c2 has no inertia in it)."""
     E_c = assembly.constrained_modulus(p.E, p.nu)
-    rho = mixture_density(p)
+    rho = mixture_density(p) * S
     return {"c": np.sqrt(E_c / rho), "c1": np.sqrt((E_c + p.K_l / p.porosity) / rho),
             "c2": analytic.consistent_coefficient(p.k, E_c, unit_weight(p), p.K_l,
                                                   p.porosity)}
@@ -68,12 +73,13 @@ def discrete_limit(comm, p, scheme) -> tuple:
         U' = U + dt y + dt^2 a               (strain and pore pressure use v + dt a)
         y' = S y + dt R a                    (FLIP / PIC velocity update, projected back)
     with R = M^-1 sum_p w m_p N_p (the point round trip, not the identity) and
-    S = flip I + (1 - flip) R. The limit is the largest dt with spectral radius <= 1, found by
-    bisection on dense eigenvalues. This is what the run does: on M2-Q4 it gives 7.85e-5 s
-    (runs at 7.5e-5 s are stable, at 8.0e-5 s they blow up), where a grid-only symplectic
-    Euler analysis (R = S = I) would give 9.23e-5 s. Grids with more than ``MAX_STATE``
-    unknowns are analysed on a patch of at most 4 x 10 cells of the same size and element;
-    the instability is local to the cells.
+    S = flip I + (1 - flip) R. With implicit drag L_U and L_y depend on dt (the nodal 2 x 2
+    solve of ``_accelerations``). The limit is the largest dt with spectral radius <= 1,
+    found by bisection on dense eigenvalues. This is what the run does: on M2-Q4 it gives
+    7.85e-5 s (runs at 7.5e-5 s are stable, at 8.0e-5 s they blow up), where a grid-only
+    symplectic Euler analysis (R = S = I) would give 9.23e-5 s. Grids with more than
+    ``MAX_STATE`` unknowns are analysed on a patch of at most 4 x 10 cells of the same size
+    and element; the instability is local to the cells.
     """
     from .grid import Grid
     from .points import place
@@ -88,14 +94,25 @@ def discrete_limit(comm, p, scheme) -> tuple:
     if comm.getRank() == 0:
         grid = Grid(PETSc.COMM_SELF, p.element, cells, size)
         points = place(grid, p.ppc, mixture_density(p), "uniform")
-        limit = _bisect_limit(_linear_step(grid, points, p, scheme), p.flip,
-                              min(2 / drag_rate(p), min(grid.h) / wave_speeds(p)["c1"]))
+        S = scheme["mass_scaling"]
+        guess = min(grid.h) / wave_speeds(p, S)["c1"]
+        if scheme["drag"] == "explicit":
+            guess = min(2 / drag_rate(p, S), guess)
+        limit = _bisect_limit(_linear_parts(grid, points, p, scheme), p.flip, guess)
         points.destroy()
     return comm.tompi4py().bcast(limit, root=0), cells
 
 
-def _linear_step(grid, points, p, scheme):
-    """Dense L_U, L_y, R of the linearised step over the free DOFs (one rank)."""
+def _linear_step(grid, points, p, scheme, dt=0.0):
+    """Dense L_U, L_y, R of the linearised step over the free DOFs (one rank), at the time
+    step dt (only implicit drag depends on it; dt = 0 is the semi-discrete operator)."""
+    parts = _linear_parts(grid, points, p, scheme)
+    return (*_accelerations(parts, dt), parts["R"])
+
+
+def _linear_parts(grid, points, p, scheme):
+    """What the linearised step is made of, over the free DOFs: the nodal forces on U
+    (``fm``, ``fl``), the lumped masses and drag per DOF, the fixed-phase masks, R."""
     n = p.porosity
     x, V = points.get("x", "volume")
     it = assembly.interpolation(grid, x)
@@ -122,7 +139,9 @@ def _linear_step(grid, points, p, scheme):
         Dl = np.hstack([spread(bl.dNdx[..., 0]), spread(bl.dNdx[..., 1])])
     else:
         Wl, Nl, Dl = Wm, Nm, div
-    ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
+    # Inertia scaled by S (-mpm_mass_scaling); drag and forces are not.
+    S = scheme["mass_scaling"]
+    ms, ml, mt = (1 - n) * p.rho_s * S * V, n * p.rho_l * S * V, p.rho_l * S * V
     Ms = Wm.T @ ms
     Ml, Mt, Q = (Wl.T @ v for v in (ml, mt, drag_coefficient(p) * V))
     sig = np.einsum("ij,pjk->pik", assembly.elasticity(p.E, p.nu), B)
@@ -132,24 +151,15 @@ def _linear_step(grid, points, p, scheme):
     pres = -(p.K_l / n) * np.hstack([div - n * Dl, n * Dl])
     if scheme["pressure_projection"] == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
-        S = Wm.T @ V
-        pres = Nm @ ((np.divide(1.0, S, out=np.zeros_like(S), where=S > 0)[:, None]
+        Sw = Wm.T @ V
+        pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
                       * (Wm * V[:, None]).T) @ pres)
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     fm = -np.einsum("pik,p,pij->kj", B, V, sig)
     fl = np.einsum("pk,p,pj->kj", Dl, V, pres)
-
-    def inv(a):
-        return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)
-
-    Ms2, Ml2, Mt2, Q2 = (np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q))
-    LU_l = inv(Mt2)[:, None] * fl
-    Ly_l = np.hstack([np.diag(inv(Mt2) * Q2), -np.diag(inv(Mt2) * Q2)])
-    LU = np.vstack([inv(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
-    Ly = np.vstack([-inv(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
-    Rs = inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
-    Rl = inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
+    Rs = _inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
+    Rl = _inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
     R = np.zeros((4 * nn, 4 * nn))
     for b, Rb in enumerate((Rs, Rs, Rl, Rl)):
         R[b * nn:(b + 1) * nn, b * nn:(b + 1) * nn] = Rb
@@ -157,12 +167,51 @@ def _linear_step(grid, points, p, scheme):
     fixed_s = grid.constrained_mask(boundary_conditions(p)).reshape(-1, 2).T.ravel()
     fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2).T.ravel()
     free = np.flatnonzero(np.concatenate([~fixed_s, ~fixed_l]) & np.tile(Ms > 0, 4))
-    sub = np.ix_(free, free)
-    return LU[sub], Ly[sub], R[sub]
+    return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
+            "fixed": (fixed_s, fixed_l), "free": free, "R": R[np.ix_(free, free)],
+            "implicit": scheme["drag"] == "implicit"}
 
 
-def _spectral_radius(ops, flip, dt):
-    LU, Ly, R = ops
+def _inv(a):
+    return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)
+
+
+def _accelerations(parts, dt):
+    """L_U, L_y over the free DOFs at the time step dt.
+
+    Explicit drag: a_l = (f_l - Q (y_l - y_s)) / M~_l, a_s = (f_m - M_l a_l) / M_s.
+    Implicit drag (``TwoPhase._nodal``): per DOF, with r = f_l - Q (y_l - y_s),
+        M_s a_s + M_l a_l = f_m,    (M~_l + Q dt) a_l - Q dt a_s = r,
+    solved in closed form, det = M_s M~_l + Q dt (M_s + M_l); a phase held fixed leaves the
+    other alone (solid fixed: a_l = r / (M~_l + Q dt); liquid fixed: a_s = f_m / M_s). The
+    held phase's velocity is zero: its columns of L_y drop out with the fixed DOFs."""
+    fm, fl = parts["fm"], parts["fl"]
+    Ms2, Ml2, Mt2, Q2 = parts["mass"]
+    if not parts["implicit"]:
+        LU_l = _inv(Mt2)[:, None] * fl
+        Ly_l = np.hstack([np.diag(_inv(Mt2) * Q2), -np.diag(_inv(Mt2) * Q2)])
+        LU = np.vstack([_inv(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
+        Ly = np.vstack([-_inv(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
+    else:
+        fixed_s, fixed_l = parts["fixed"]
+        Qdt = Q2 * dt
+        inv_det = _inv(Ms2 * Mt2 + Qdt * (Ms2 + Ml2))
+        # a_s = A_ss f_m + A_sl r, a_l = A_ls f_m + A_ll r
+        A_ss = np.where(fixed_l, _inv(Ms2), (Mt2 + Qdt) * inv_det)
+        A_sl = np.where(fixed_l, 0.0, -Ml2 * inv_det)
+        A_ls = np.where(fixed_s, 0.0, Qdt * inv_det)
+        A_ll = np.where(fixed_s, _inv(Mt2 + Qdt), Ms2 * inv_det)
+        Ly_r = np.hstack([np.diag(Q2), -np.diag(Q2)])          # r's part on (y_s, y_l)
+        LU = np.vstack([A_ss[:, None] * fm + A_sl[:, None] * fl,
+                        A_ls[:, None] * fm + A_ll[:, None] * fl])
+        Ly = np.vstack([A_sl[:, None] * Ly_r, A_ll[:, None] * Ly_r])
+    sub = np.ix_(parts["free"], parts["free"])
+    return LU[sub], Ly[sub]
+
+
+def _spectral_radius(parts, flip, dt):
+    LU, Ly = _accelerations(parts, dt)
+    R = parts["R"]
     m = LU.shape[0]
     I = np.eye(m)
     S = flip * I + (1 - flip) * R
@@ -178,24 +227,34 @@ def _spectral_radius(ops, flip, dt):
 RADIUS_TOL = 1e-6
 
 
-def _bisect_limit(ops, flip, guess, rtol=1e-4):
+def _bisect_limit(parts, flip, guess, rtol=1e-4):
     lo, hi = guess / 64, guess * 4
-    while _spectral_radius(ops, flip, hi) <= 1 + RADIUS_TOL:
+    while _spectral_radius(parts, flip, hi) <= 1 + RADIUS_TOL:
         lo, hi = hi, hi * 4
     while hi / lo > 1 + rtol:
         mid = np.sqrt(lo * hi)
-        if _spectral_radius(ops, flip, mid) <= 1 + RADIUS_TOL:
+        if _spectral_radius(parts, flip, mid) <= 1 + RADIUS_TOL:
             lo = mid
         else:
             hi = mid
     return lo
 
 
-def criteria(p, f1: float, dt_discrete: float, grid) -> dict:
-    """All critical time steps (s) of the scene, keyed as in the summary."""
-    L = min(grid.h)
-    s = wave_speeds(p)
-    c3 = 2 * np.pi * f1 * p.size[1]
+def criteria(p, f1: float, dt_discrete: float, h, S: float = 1.0) -> dict:
+    """All critical time steps (s) of the scene, keyed as in the summary: cell sizes h (m),
+    f1 the physical fundamental frequency (Hz), S the mass scaling (f1 falls as
+    1/sqrt(S), the wave limits grow as sqrt(S), the drag limit as S)."""
+    L = min(h)
+    s = wave_speeds(p, S)
+    c3 = 2 * np.pi * f1 / np.sqrt(S) * p.size[1]
     return {"cfl": L / s["c"], "undrained": L / s["c1"], "diffusion": L * L / (2 * s["c2"]),
-            "oscillator": L / c3, "drag": 2 / drag_rate(p), "discrete": dt_discrete}
+            "oscillator": L / c3, "drag": 2 / drag_rate(p, S), "discrete": dt_discrete}
+
+
+def stability_limits(limits: dict, drag: str) -> dict:
+    """The criteria that bound the stability of the step: the undrained wave, the discrete
+    limit, and the drag limit 2/lambda only when the drag is explicit."""
+    keys = ("undrained", "drag", "discrete") if drag == "explicit" else ("undrained",
+                                                                           "discrete")
+    return {k: limits[k] for k in keys if k in limits}
 

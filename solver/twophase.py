@@ -12,9 +12,11 @@ One step, with every nodal quantity lumped (a diagonal):
    the liquid force f_l = sum p grad(N) V (2) (+ gravity). Per point and node they are
    w, dN/dx or dN/dy times per-point coefficients, summed over the nodes by one np.bincount
    and, over the ranks, by one localToGlobal(ADD) of a ghosted 9-field Vec.
-2. Nodal accelerations (eqs. 13, 14), pointwise: a_l = (f_l - Q (v_l - v_s)) / M~_l,
-   a_s = (f_m - M_l a_l) / M_s; optional local damping; fixed DOFs held; then
-   v^{k+1} = v^k + dt a^k (eq. 6).
+2. Nodal accelerations (eqs. 13, 14), pointwise: explicit drag a_l = (f_l - Q (v_l - v_s))
+   / M~_l, a_s = (f_m - M_l a_l) / M_s, or implicit drag (backward Euler on the relative
+   velocity, a closed-form 2 x 2 solve per node and direction, ``_implicit_drag``);
+   optional local damping; fixed DOFs held; then v^{k+1} = v^k + dt a^k (eq. 6). Mass
+   scaling (-mpm_mass_scaling S) multiplies every inertia (M_s, M_l, M~_l) by S.
 3. Grid to points: point velocities (FLIP, or a FLIP/PIC blend), strain rate from the nodal
    v_s^{k+1}, effective stress by linear elasticity, pore pressure from eqs. 8-9
    (dp = -K_l / n [(1 - n) div v_s + n div v_l] dt), positions x += dt v_s^{k+1}.
@@ -91,10 +93,13 @@ class TwoPhase:
         n = p.porosity
         self.n = n
         self.drag = drag_coefficient(p)                     # eq. 12 (kg/m3/s)
-        # Lumped quantities per unit S = sum w V (uniform porosity and densities).
-        self.c_s = (1 - n) * p.rho_s                        # M_s / S, kg/m3
-        self.c_l = n * p.rho_l                              # M_l / S
-        self.c_t = p.rho_l                                  # M~_l / S
+        self.implicit = scheme["drag"] == "implicit"
+        # Lumped quantities per unit S = sum w V (uniform porosity and densities). Mass
+        # scaling multiplies the inertia only: the drag and the weight stay physical.
+        inertia = scheme["mass_scaling"]
+        self.c_s = (1 - n) * p.rho_s * inertia              # M_s / S, kg/m3
+        self.c_l = n * p.rho_l * inertia                    # M_l / S
+        self.c_t = p.rho_l * inertia                        # M~_l / S
         self.c_q = self.drag                                # Q / S, kg/m3/s
         # Lumping weights other than N (HRZ) are computed per step from N.
         self.hrz = lumping != "rowsum"
@@ -454,17 +459,51 @@ class TwoPhase:
             damp *= np.sign(v_mix)
             damp *= damping
             fm -= damp
-        a_s, a_l = O[0:2], O[2:4]
-        rel = np.subtract(vl_n, vs_n)
-        rel *= self.c_q * Sl                     # Q (v_l - v_s)
-        np.subtract(G[7:9], rel, out=a_l)
-        a_l *= invSl * (1.0 / self.c_t)          # / M~_l
-        np.multiply(a_l, self.c_l * Sl, out=a_s)  # M_l a_l
-        np.subtract(fm, a_s, out=a_s)
-        a_s *= invS * (1.0 / self.c_s)           # / M_s
+        if self.implicit:
+            self._implicit_drag(G[7:9], fm, vs_n, vl_n, S, Sl, O, dt)
+        else:
+            a_s, a_l = O[0:2], O[2:4]
+            rel = np.subtract(vl_n, vs_n)
+            rel *= self.c_q * Sl                     # Q (v_l - v_s)
+            np.subtract(G[7:9], rel, out=a_l)
+            a_l *= invSl * (1.0 / self.c_t)          # / M~_l
+            np.multiply(a_l, self.c_l * Sl, out=a_s)  # M_l a_l
+            np.subtract(fm, a_s, out=a_s)
+            a_s *= invS * (1.0 / self.c_s)           # / M_s
         np.multiply(O[0:4], dt, out=O[4:8])
         O[4:8] += vn                             # v^{k+1} = v^k + dt a^k
         O *= self._free                          # fixed DOFs: a = 0 and v = 0
+
+    def _implicit_drag(self, fl, fm, vs_n, vl_n, S, Sl, O, dt):
+        """Accelerations a_s, a_l (m/s2, into O[0:4]) with the drag of eq. (14) taken
+        implicitly, node by node and direction by direction: with the relative velocity at
+        the end of the step in the drag,
+            M~_l a_l = f_l - Q (w + dt (a_l - a_s)),   M_s a_s + M_l a_l = f_m,
+        w = v_l - v_s. The relative acceleration b = a_l - a_s comes first,
+            (M~_l M_s / (M_s + M_l) + Q dt) b = f_l - Q w - M~_l f_m / (M_s + M_l),
+        then a_s = (f_m - M_l b) / (M_s + M_l), a_l = a_s + b. Where a phase is held
+        (a = 0, v = 0), the other alone: a_l = (f_l - Q v_l) / (M~_l + Q dt) on a held
+        solid, a_s = f_m / M_s on a held liquid. Backward Euler on the drag is unconditionally
+        stable: no 2/lambda limit."""
+        Ms, Ml, Mt, Q = self.c_s * S, self.c_l * Sl, self.c_t * Sl, self.c_q * Sl
+        # A node without positive mass of a phase (no points, or negative Q9 row sums of an
+        # irregular state) holds that phase, as the explicit step's 1/S = 0 there does.
+        held_s = self.fixed_s.T | (S <= 0)                       # (2, nown)
+        held_l = self.fixed_l.T | (Sl <= 0)
+        vs = np.where(held_s, 0.0, vs_n)
+        vl = np.where(held_l, 0.0, vl_n)
+        Mm = Ms + Ml
+        inv_m = np.divide(1.0, Mm, out=np.zeros_like(Mm), where=Mm > 0)
+        r = fl - Q * (vl - vs)                                  # f_l - Q w
+        den = Mt * Ms * inv_m + Q * dt
+        b = np.divide(r - Mt * inv_m * fm, den, out=np.zeros_like(r), where=den > 0)
+        a_s, a_l = O[0:2], O[2:4]
+        np.multiply(fm - Ml * b, inv_m, out=a_s)
+        np.add(a_s, b, out=a_l)
+        alone_l = np.divide(r, Mt + Q * dt, out=np.zeros_like(r), where=Sl > 0)
+        alone_s = np.divide(fm, Ms, out=np.zeros_like(fm), where=S > 0)
+        a_l[:] = np.where(held_l, 0.0, np.where(held_s, alone_l, a_l))
+        a_s[:] = np.where(held_s, 0.0, np.where(held_l, alone_s, a_s))
 
     def _g2p(self, s, e, whole, dt, flip):
         """Grid to points s:e: velocities, stress, pore pressure, positions, volume ratio."""

@@ -53,7 +53,11 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
         wl, Nl, dNl = bl.N, bl.N, bl.dNdx
     else:
         wl, Nl, dNl = w, N, dN
+    # Mass scaling multiplies the inertia; the weight (gravity terms below) stays physical.
+    S = scheme["mass_scaling"]
     ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
+    wm, wt = ms + ml, mt
+    ms, ml, mt = S * ms, S * ml, S * mt
     npnt, nen = N.shape
     C = np.empty((npnt, nen, 12))
     C[..., 0] = w * ms[:, None]
@@ -66,8 +70,8 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     C[..., 8] = -(dN[..., 0] * sxx[:, None] + dN[..., 1] * sxy[:, None])
     C[..., 9] = -(dN[..., 0] * sxy[:, None] + dN[..., 1] * syy[:, None])
     C[..., 10:12] = dNl * (pp * V)[:, None, None]
-    C[..., 8:10] += (N * (ms + ml)[:, None])[..., None] * gvec
-    C[..., 10:12] += (Nl * mt[:, None])[..., None] * gvec
+    C[..., 8:10] += (N * wm[:, None])[..., None] * gvec
+    C[..., 10:12] += (Nl * wt[:, None])[..., None] * gvec
     G = np.bincount((nodes[..., None] * 12 + np.arange(12)).ravel(), weights=C.ravel(),
                     minlength=ng * 12).reshape(-1, 12)
     Ms, Ml, Mt, Q = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
@@ -80,10 +84,13 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     fm[:, 1] += load_factor * traction
     if damping:
         fm -= damping * np.abs(fm) * np.sign(Ms[:, None] * vs_n + Ml[:, None] * vl_n)
-    al = (G[:, 10:12] - Q[:, None] * (vl_n - vs_n)) * inv(Mt)[:, None]
-    as_ = (fm - Ml[:, None] * al) * inv(Ms)[:, None]
     fs = grid.constrained_mask(bcs).reshape(-1, 2)
     fl = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
+    if scheme["drag"] == "explicit":
+        al = (G[:, 10:12] - Q[:, None] * (vl_n - vs_n)) * inv(Mt)[:, None]
+        as_ = (fm - Ml[:, None] * al) * inv(Ms)[:, None]
+    else:
+        as_, al = _implicit_drag(Ms, Ml, Mt, Q, fm, G[:, 10:12], vs_n, vl_n, fs, fl, dt)
     as_[fs], vs_n[fs], al[fl], vl_n[fl] = 0.0, 0.0, 0.0, 0.0
     Hn = np.hstack([as_, al, vs_n + dt * as_, vl_n + dt * al])[nodes]
     at = np.einsum("pa,paf->pf", N, Hn)
@@ -109,6 +116,30 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     pp -= dp
 
 
+def _implicit_drag(Ms, Ml, Mt, Q, fm, fl, vs, vl, held_s, held_l, dt):
+    """Accelerations with backward Euler on the drag, by a 2 x 2 solve per node and
+    direction: [[M_s, M_l], [-Q dt, M~_l + Q dt]] (a_s, a_l) = (f_m, f_l - Q (v_l - v_s)),
+    a held phase's velocity zero and the other phase's equation alone. A phase without
+    positive mass at a node is held there (as 1/M = 0 holds it in the explicit step)."""
+    as_, al = np.zeros_like(fm), np.zeros_like(fm)
+    held_s = held_s | (Ms <= 0)[:, None]
+    held_l = held_l | (Ml <= 0)[:, None]
+    for a in range(len(Ms)):
+        for d in range(2):
+            w = (0.0 if held_l[a, d] else vl[a, d]) - (0.0 if held_s[a, d] else vs[a, d])
+            rhs = np.array([fm[a, d], fl[a, d] - Q[a] * w])
+            if held_s[a, d] and held_l[a, d]:
+                continue
+            if held_s[a, d]:
+                al[a, d] = rhs[1] / (Mt[a] + Q[a] * dt)
+            elif held_l[a, d]:
+                as_[a, d] = rhs[0] / Ms[a]
+            else:
+                A = np.array([[Ms[a], Ml[a]], [-Q[a] * dt, Mt[a] + Q[a] * dt]])
+                as_[a, d], al[a, d] = np.linalg.solve(A, rhs)
+    return as_, al
+
+
 CASES = [
     dict(element="q4", cells="4,40"),
     dict(element="q4", cells="4,40", kinematics="large", pressure_projection="none"),
@@ -124,6 +155,14 @@ CASES = [
     dict(element="q9", cells="3,30", ppc=3, drained="top,bottom", flip=0.7),
     dict(element="q4", cells="40,300", size="0.4,3"),           # several chunks of points
     dict(element="q9", cells="20,200", ppc=3, size="0.2,2"),
+    # The paper's explicit drag, and inertia scaled both ways (with gravity: the weight
+    # must stay physical).
+    dict(element="q4", cells="4,40", drag="explicit"),
+    dict(element="q8", cells="3,30", ppc=3, drag="explicit", gravity=9.81),
+    dict(element="q9", cells="3,30", ppc=3, drag="explicit", mass_scaling=0.01),
+    dict(element="q4", cells="4,40", gravity=9.81, mass_scaling=1e4, damping=0.3),
+    dict(element="q8", cells="3,30", ppc=3, gravity=9.81, mass_scaling=1e-3, k=1e-8),
+    dict(element="q4", cells="4,40", drained="top,bottom,left", k=1e-9, mass_scaling=1e6),
 ]
 
 

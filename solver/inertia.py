@@ -1,0 +1,124 @@
+"""How much inertia a consolidation scene carries, and mass scaling (``-mpm_mass_scaling``).
+
+Consolidation is quasi-static; the v-w scheme is dynamic. Two time scales meet:
+- the period of the undrained compression wave that a sudden load excites, T_w = 4 H / c1;
+- the consolidation time, T_c = H^2 / c2 (c2: diffusivity with compressible water);
+and their ratio Pi = T_c / T_w = H c1 / (4 c2) says how much inertia matters (the paper's
+column: Pi = 435). Scaling both phases' densities in the inertia by S (not the drag, not the
+weight) leaves c2 and the quasi-static solution as they are and gives c1_S = c1 / sqrt(S),
+Pi_S = Pi / sqrt(S): S > 1 makes slow scenes feasible, S < 1 makes fast ones accurate.
+
+Two inertia errors at the earliest report time t_r (tau_r = c2 t_r / H^2), in units of q:
+- the wave. Local damping alpha turns a free oscillation into quarter-periods of stiffness
+  (1 + alpha) k outwards and (1 - alpha) k back, so each period multiplies the amplitude by
+  r = (1 - alpha) / (1 + alpha) exactly (a single mode), and lengthens the period to
+  T_d = T_w (1 / sqrt(1 + alpha) + 1 / sqrt(1 - alpha)) / 2. The wave starts at about
+  p0 <= q, so after N = t_r / T_d periods (Pi_S tau_r undamped ones) it is r^N;
+- the drag lag. The relative velocity relaxes to Darcy's at the rate lambda_S = lambda / S
+  (``timestep.drag_rate``): the flow, hence p, lags the quasi-static one by about 1/lambda_S,
+  an error of about LAG / (lambda_S t_r) = LAG S / (lambda t_r). LAG = 2 is measured: on the
+  paper's column (Pi = 435) S = 10.7 moved p at T_v = 0.1 by 0.34 % of q, 1.7 times the
+  bare 1 / (lambda_S t_r) (the larger step that S allows adds to it). (lambda T_c is a
+  material constant times Pi^2, so this too is a function of Pi_S.)
+A third bound is measured, not derived: a slow residual oscillation outlives the wave
+estimate. On the stiff column (cases/consolidation-stiff.opts, 1 x 40 Q4 cells) p at T_v = 1
+was off by 0.17 % of q (1.7 % of p) with Pi_S = 80; on the paper's column p at T_v = 0.1
+moved by 0.33, 0.10, 0.04 and 0.01 % of q with Pi_S = 200, 250, 300 and 400 (against
+Pi_S = 435), so ``auto`` also keeps Pi_S >= PI_MIN = 300.
+``auto`` takes the largest S with both estimates at most TOLERANCE and Pi_S >= PI_MIN:
+    t_r / T_d >= ln(1 / TOLERANCE) / ln(1 / r),    S <= TOLERANCE lambda t_r / LAG.
+Measured (tests/test_inertia.py, docs/method.md): the wave estimate is conservative by up to
+a factor 3 when the oscillation has decayed far, and close near the tolerance.
+A run warns when either estimate exceeds VISIBLE at its own S.
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import analytic, assembly, timestep
+from .errors import InputError
+
+TOLERANCE = 0.002   # inertia error that -mpm_mass_scaling auto allows (fraction of q)
+VISIBLE = 0.01      # inertia error that biases a comparison with Terzaghi visibly
+LAG = 2.0           # measured drag-lag error over the bare 1 / (lambda_S t_r)
+PI_MIN = 300.0      # measured: Pi_S below which a residual oscillation exceeds 0.05 % of q
+
+
+def _stretch(alpha: float) -> float:
+    """T_d / T_w: the period of a locally damped oscillation over the undamped one."""
+    return (1 / math.sqrt(1 + alpha) + 1 / math.sqrt(1 - alpha)) / 2
+
+
+def _times(p):
+    """(T_w, T_c, t_r): wave period, consolidation time, earliest report time (s)."""
+    H = p.size[1]
+    s = timestep.wave_speeds(p)
+    E_c = assembly.constrained_modulus(p.E, p.nu)
+    cv = analytic.consolidation_coefficient(p.k, E_c, timestep.unit_weight(p))
+    return 4 * H / s["c1"], H * H / s["c2"], min(p.Tv_report) * H * H / cv
+
+
+def regime(p, S: float = 1.0) -> dict:
+    """The inertia regime of scene ``p`` with mass scaling S: time scales (s), Pi, Pi_S,
+    the wave periods before the earliest report, both error estimates (fractions of q)."""
+    T_w, T_c, t_r = _times(p)
+    Pi = T_c / T_w
+    periods = t_r / (T_w * math.sqrt(S) * _stretch(p.damping))
+    r = (1 - p.damping) / (1 + p.damping)
+    return {"wave_period_s": T_w, "consolidation_time_s": T_c, "Pi": Pi,
+            "mass_scaling": S, "Pi_S": Pi / math.sqrt(S), "wave_period_scaled_s":
+            T_w * math.sqrt(S), "first_report_Tv": min(p.Tv_report), "first_report_s": t_r,
+            "periods_to_first_report": periods, "wave_error": r ** periods,
+            "drag_lag_error": LAG * S / (timestep.drag_rate(p) * t_r),
+            "tolerance": TOLERANCE, "visible": VISIBLE, "Pi_S_min": PI_MIN,
+            "criterion": "wave error ((1 - alpha)/(1 + alpha))^(t_r / T_d) (T_d the damped "
+                         "period of the scaled wave) and drag lag "
+                         "2 S / (lambda t_r) at the earliest report time t_r, in units of q"}
+
+
+def auto_factor(p) -> float:
+    """The largest S whose two inertia errors stay within TOLERANCE (module docstring)."""
+    if p.damping <= 0:
+        raise InputError("-mpm_mass_scaling auto: needs local damping (-mpm_damping > 0), "
+                         "without which the undrained wave does not decay; give a factor S")
+    T_w, T_c, t_r = _times(p)
+    periods = math.log(1 / TOLERANCE) / math.log((1 + p.damping) / (1 - p.damping))
+    wave = (t_r / (T_w * _stretch(p.damping) * periods)) ** 2   # t_r is `periods` periods
+    drag = TOLERANCE * timestep.drag_rate(p) * t_r / LAG
+    floor = (T_c / T_w / PI_MIN) ** 2
+    return float(f"{min(wave, drag, floor):.3g}")   # 3 digits: the same on every rank count
+
+
+def scaling(p) -> float:
+    """The factor S of ``-mpm_mass_scaling`` (none: 1)."""
+    if p.mass_scaling == "none":
+        return 1.0
+    if p.mass_scaling == "auto":
+        return auto_factor(p)
+    return float(p.mass_scaling)
+
+
+def warning(reg: dict):
+    """A warning line when inertia visibly biases the comparison at the earliest report
+    time (either estimate above VISIBLE), else None."""
+    worst = max(reg["wave_error"], reg["drag_lag_error"])
+    if worst <= VISIBLE:
+        return None
+    what = ("the undrained wave" if reg["wave_error"] >= reg["drag_lag_error"]
+            else "the drag lag")
+    return (f"WARNING: inertia biases p at T_v = {reg['first_report_Tv']:g} by about "
+            f"{100 * worst:.2g} % of q ({what}: {reg['periods_to_first_report']:.3g} wave "
+            f"periods by then, Pi_S = {reg['Pi_S']:.3g}); -mpm_mass_scaling auto keeps it "
+            f"within {100 * TOLERANCE:g} %")
+
+
+def describe(reg: dict) -> str:
+    """Lines for the run's banner."""
+    return (f"Inertia: wave period 4H/c1 = {reg['wave_period_s']:.3g} s, consolidation time "
+            f"H^2/c2 = {reg['consolidation_time_s']:.4g} s, Pi = {reg['Pi']:.4g}; mass "
+            f"scaling S = {reg['mass_scaling']:.4g} (Pi_S = {reg['Pi_S']:.4g}): "
+            f"{reg['periods_to_first_report']:.3g} periods to T_v = "
+            f"{reg['first_report_Tv']:g}, estimated wave error {100 * reg['wave_error']:.2g} %,"
+            f" drag lag {100 * reg['drag_lag_error']:.2g} % of q (auto: both <= "
+            f"{100 * TOLERANCE:g} % and Pi_S >= {PI_MIN:g})")
