@@ -91,8 +91,8 @@ def run(p, comm) -> int:
                                                           workprecision.PICKED},
                   "measured_pct": choice["measure"], "why": lines}
     scheme = assembly.step_scheme(p)
+    memory.check(p, comm)          # a model that does not fit says so first
     _check_feasible(p, scheme)
-    memory.check(p, comm)
     t_wall = time.perf_counter()
     mpi = comm.tompi4py()
     from mpi4py import MPI
@@ -394,18 +394,22 @@ def _check_feasible(p, scheme):
     if not math.isnan(p.dt):
         raise InputError(f"-mpm_dt {p.dt:g}: {steps:.3g} steps to T_v = {p.Tv_end:g}, more "
                          f"than {MAX_STEPS:.0e}; raise -mpm_dt or lower -mpm_Tv_end")
-    ways = []
+    ways = []                                   # (what to change, steps with it)
     if drag == "explicit":
-        ways.append(f"-mpm_drag implicit: {_estimated_steps(p, 'implicit', S):.3g}")
+        ways.append(("-mpm_drag implicit", _estimated_steps(p, "implicit", S)))
     if p.mass_scaling != "auto" and p.damping > 0:
         S_auto = inertia.auto_factor(p)
-        ways.append(("-mpm_drag implicit " if drag == "explicit" else "")
-                    + f"-mpm_mass_scaling auto (S = {S_auto:.3g}): "
-                    f"{_estimated_steps(p, 'implicit', S_auto):.3g}")
+        ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
+                     + f"-mpm_mass_scaling auto (S = {S_auto:.3g})",
+                     _estimated_steps(p, "implicit", S_auto)))
+    if not any(n <= MAX_STEPS for _, n in ways):
+        # Neither the drag nor the inertia makes this run finish: it is too long.
+        raise InputError(f"-mpm_Tv_end {p.Tv_end:g}: at least {steps:.3g} steps, more than "
+                         f"{MAX_STEPS:.0e} (" + "".join(f"with {w}: {n:.3g}; " for w, n in ways)
+                         + "shorten the run or coarsen the grid)")
     raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {steps:.3g} steps to "
-                     f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}"
-                     + ("; steps with " + "; with ".join(ways) if ways else
-                        "; shorten the run (-mpm_Tv_end) or coarsen the grid"))
+                     f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
+                     "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))
 
 
 def _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme):
