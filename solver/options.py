@@ -159,9 +159,9 @@ SPEC = [
            "point), nodal (projected onto the nodal field and interpolated back), auto "
            "(nodal for q4, none for q8 and q9)", (CONSOLIDATION,),
            choices=("auto", "none", "nodal")),
-    Option("liquid_basis", "str", "auto", "test functions of the liquid equation (its masses, "
-           "drag, forces and momentum): element (N), blended (N/2 + N_Q4/2, positive lumped "
-           "weights), auto (blended for q8)", (CONSOLIDATION,),
+    Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
+           "force, velocity transfers and relative motion): element (N), blended (N/2 + "
+           "N_Q4/2, positive lumped weights), auto (blended for q8)", (CONSOLIDATION,),
            choices=("auto", "element", "blended")),
     Option("drag", "str", "implicit", "drag of the liquid equation (eq. 14): implicit "
            "(backward Euler on the relative velocity, node by node: no drag limit on dt), "
