@@ -152,8 +152,7 @@ def run(p, comm) -> int:
     dt = p.dt if not math.isnan(p.dt) else _round_down(p.dt_safety * limits[smallest], 3)
     if restart is not None:
         dt = restart[2]["dt"]
-    exceeded = [k for k, v in limits.items() if dt > v
-                and (k != "drag" or scheme["drag"] == "explicit")]
+    exceeded = [k for k, v in timestep.applicable(limits, scheme["drag"]).items() if dt > v]
     speeds = timestep.wave_speeds(p, S)
     _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme)
     regime = inertia.regime(p, S)
@@ -368,7 +367,7 @@ def _report(Tv, t, points, mpi, p, height, cv, c2, p0, prof):
 
 def _governing(limits: dict, drag: str) -> str:
     """The criterion that sets dt: the smallest, the drag limit only with explicit drag."""
-    return min((k for k in limits if k != "drag" or drag == "explicit"), key=limits.get)
+    return min(timestep.applicable(limits, drag), key=limits.get)
 
 
 def _estimated_steps(p, drag: str, S: float) -> float:

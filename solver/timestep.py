@@ -251,10 +251,15 @@ def criteria(p, f1: float, dt_discrete: float, h, S: float = 1.0) -> dict:
             "oscillator": L / c3, "drag": 2 / drag_rate(p, S), "discrete": dt_discrete}
 
 
+def applicable(limits: dict, drag: str) -> dict:
+    """The criteria that apply to the step: all of them, less the drag limit 2/lambda
+    when the drag is implicit (backward Euler on the drag has none)."""
+    return {k: v for k, v in limits.items() if k != "drag" or drag == "explicit"}
+
+
 def stability_limits(limits: dict, drag: str) -> dict:
     """The criteria that bound the stability of the step: the undrained wave, the discrete
     limit, and the drag limit 2/lambda only when the drag is explicit."""
-    keys = ("undrained", "drag", "discrete") if drag == "explicit" else ("undrained",
-                                                                           "discrete")
-    return {k: limits[k] for k in keys if k in limits}
+    return {k: v for k, v in applicable(limits, drag).items()
+            if k in ("undrained", "drag", "discrete")}
 
