@@ -569,8 +569,9 @@ class TwoPhase:
     def _accumulate_dp(self, s, e, W, nodes, base, dp):
         """Add the chunk's sum w V dp (pressure increments dp, Pa) to the nodal sums."""
         m = e - s
-        wv = np.multiply(self._weights(W, m) if base is not None or not self.hrz
-                         else self._w[:, :m], self.V[s:e], out=self._C2[0, :, :m])
+        # One pass (base None): the weights of points-to-grid, for the same rows, still hold.
+        wv = np.multiply(self._weights(W, m, kept=base is None), self.V[s:e],
+                         out=self._C2[0, :, :m])
         wv *= dp
         if base is None:
             self._accp += np.bincount(nodes.ravel(), weights=wv.ravel(), minlength=self.ng)
