@@ -24,7 +24,7 @@ from . import (analytic, assembly, checkpoint, eigen, inertia, jacobi, memory, o
 from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
-from .twophase import POINT_FIELDS, TwoPhase
+from .twophase import TwoPhase, point_fields
 
 MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
@@ -101,7 +101,7 @@ def run(p, comm) -> int:
     bcs = eigen.boundary_conditions(p)
     S = scheme["mass_scaling"]
     grid = Grid(comm, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
+    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", point_fields(p))
     restart = checkpoint.read(p.restart, p) if p.restart else None
     if restart is not None:
         # auto depends on the earliest report time, which a restart may change: keep the
@@ -223,7 +223,8 @@ def run(p, comm) -> int:
                "cells": list(p.cells), "ppc": p.ppc, "n_points": points.n_global,
                "steps": 0, "dt": dt, "wall_seconds": 0.0, "stable": True,
                "dt_critical": limits, "dt_governing": smallest, "dt_exceeds": exceeded,
-               **scheme, "damping": p.damping, "flip": p.flip,
+               **scheme, "damping": p.damping, "bulk_viscosity": p.bulk_viscosity,
+               "fast_damping": p.fast_damping, "flip": p.flip,
                "f1_hz": f1, "c_v": cv, "c2": c2,
                "p0_consistent_over_q": p0, "regime": regime,
                "scene": workprecision.scene_signature(p)}

@@ -99,8 +99,17 @@ def discrete_limit(comm, p, scheme) -> tuple:
         if scheme["drag"] == "explicit":
             guess = min(2 / drag_rate(p, S), guess)
         limit = _bisect_limit(_linear_parts(grid, points, p, scheme), p.flip, guess)
+        limit *= viscous_factor(getattr(p, "bulk_viscosity", 0.0))
         points.destroy()
     return comm.tompi4py().bcast(limit, root=0), cells
+
+
+def viscous_factor(b1: float) -> float:
+    """How much a linear bulk viscosity b1 shrinks the explicit limit: the viscous stress
+    b1 rho c h div(v) gives the highest grid mode (omega = 2 c / h) the damping ratio b1, and
+    central differences with damping ratio xi are stable for omega dt <= 2 (sqrt(1 + xi^2)
+    - xi). The dense analysis is of the undamped step; this factor is applied to it."""
+    return float(np.sqrt(1 + b1 * b1) - b1)
 
 
 def _linear_step(grid, points, p, scheme, dt=0.0):

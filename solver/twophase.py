@@ -45,7 +45,7 @@ from petsc4py import PETSc
 
 from . import assembly, shapes
 from .errors import NumericalError
-from .timestep import drag_coefficient, impermeable
+from .timestep import drag_coefficient, impermeable, mixture_density, wave_speeds
 
 NF = 9    # nodal fields summed from the points: S, V v_s (2), V v_l (2), f_m (2), f_l (2),
 #           and S_l = sum N_hat V (the liquid's own weights) with a blended liquid basis
@@ -55,6 +55,17 @@ CHUNK = 4096   # points per pass (about 1.5 MB of Q4 work arrays: within a core'
 # Material-point fields of the consolidation run (besides x, volume, mass).
 POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
                 "J": 1}
+
+
+def point_fields(p) -> dict:
+    """The point fields of scene ``p``: POINT_FIELDS, with the viscous stress (Pa) of
+    -mpm_bulk_viscosity and the slow mixture velocity (m/s) of -mpm_fast_damping when on."""
+    fields = dict(POINT_FIELDS)
+    if p.bulk_viscosity > 0:
+        fields["visc"] = 1
+    if p.fast_damping > 0:
+        fields["vslow"] = 2
+    return fields
 
 _EVENTS = {}
 
@@ -101,6 +112,7 @@ class TwoPhase:
         self.c_l = n * p.rho_l * inertia                    # M_l / S
         self.c_t = p.rho_l * inertia                        # M~_l / S
         self.c_q = self.drag                                # Q / S, kg/m3/s
+        self._damping_terms(p, inertia)
         # Lumping weights other than N (HRZ) are computed per step from N.
         self.hrz = lumping != "rowsum"
         self.serial = grid.comm.getSize() == 1
@@ -157,6 +169,17 @@ class TwoPhase:
         self.ev_migrate = _event("MPMMigrate")
 
     # -- set-up ----------------------------------------------------------------------------
+    def _damping_terms(self, p, S):
+        """Coefficients of the two damping terms beside local damping (0: off): the bulk
+        viscosity eta = b1 rho c1 h (Pa s), and the fast-part damping rate 2 zeta w1 and
+        low-pass rate w1 (1/s), from the wave with inertia scaled by S."""
+        b1 = getattr(p, "bulk_viscosity", 0.0)
+        zeta = getattr(p, "fast_damping", 0.0)
+        c1 = float(wave_speeds(p, S)["c1"])
+        self.eta = b1 * mixture_density(p) * S * c1 * min(self.grid.h)
+        w1 = 2 * np.pi * c1 / (4 * p.size[1])
+        self.fast_rate, self.slow_rate = 2 * zeta * w1, (w1 if zeta > 0 else 0.0)
+
     def _traction(self, q):
         """Owned nodal forces (N per m depth) of a downward pressure q on the top edge."""
         g = self.grid
@@ -179,6 +202,8 @@ class TwoPhase:
         pts = self.points
         (self.x, self.x0, self.V, self.vs, self.vl, self.sig, self.pp,
          self.J) = pts.views("x", "x0", "volume", "vs", "vl", "stress", "p", "J")
+        self.visc = pts.views("visc") if self.eta else None
+        self.vslow = pts.views("vslow") if self.fast_rate else None
         self.xref = self.x0 if self.small else self.x
         n, nen, k = pts.n_local, self._nen, self._order + 1
         self.n_local = n
@@ -388,6 +413,8 @@ class TwoPhase:
         if self.blend:
             np.multiply(Wl[0], V, out=C[9])
         np.subtract(pp, sig[:, 0:2].T, out=self._t2[:, :m])
+        if self.eta:
+            self._t2[:, :m] -= self.visc[s:e]          # the viscous stress, on the mixture
         np.multiply(self._t2[:, :m], V, out=T[0::3])           # -(s_xx - p) V, -(s_yy - p) V
         np.multiply(sig[:, 2], V, out=t1)
         np.negative(t1, out=T[1:3])                             # -s_xy V
@@ -561,10 +588,28 @@ class TwoPhase:
             self.pp[s:e] -= t1c                      # eqs. 8-9
         np.multiply(at[4:6], dt, out=t2)
         np.add(x, t2, out=x)
+        if self.eta:
+            np.multiply(t1, self.eta, out=self.visc[s:e])   # eta div v_s
+        if self.fast_rate:
+            self._damp_fast(s, e, dt)
         t1 *= dt
         t1 += 1
         J = self.J[s:e]
         J *= t1                  # volume ratio of the solid, to catch inversion
+
+    def _damp_fast(self, s, e, dt):
+        """Fast-part damping of points s:e: both phases' velocities lose dt 2 zeta w1
+        (v_m - v_slow), v_m the mixture velocity (momentum-weighted) and v_slow its low-pass
+        over 1/w1; the slow part of the motion (settlement on the consolidation time scale)
+        is left alone, and so is the relative velocity w (Darcy flow)."""
+        vs, vl, slow = self.vs[s:e].T, self.vl[s:e].T, self.vslow[s:e].T
+        fast = np.multiply(vs, self.c_s / (self.c_s + self.c_l), out=self._t2[:, :e - s])
+        fast += vl * (self.c_l / (self.c_s + self.c_l))        # v_m
+        slow += (dt * self.slow_rate) * (fast - slow)          # v_slow, low-passed
+        fast -= slow
+        fast *= dt * self.fast_rate
+        vs -= fast
+        vl -= fast
 
     def _accumulate_dp(self, s, e, W, nodes, base, dp):
         """Add the chunk's sum w V dp (pressure increments dp, Pa) to the nodal sums."""

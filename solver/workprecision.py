@@ -29,7 +29,7 @@ MEASURE_TV = (0.5, 1.0)
 SCENE_KEYS = ("E", "nu", "rho_s", "rho_l", "porosity", "K_l", "mu_l", "k", "size", "gravity",
               "drained", "bc_left", "bc_right", "bc_bottom", "bc_top", "damping", "flip",
               "lumping", "kinematics", "pressure_projection", "liquid_basis", "load_ramp",
-              "points", "drag", "mass_scaling")
+              "points", "drag", "mass_scaling", "bulk_viscosity", "fast_damping")
 # What the target picks.
 PICKED = ("element", "cells", "ppc", "dt_safety")
 
