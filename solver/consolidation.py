@@ -397,7 +397,7 @@ def _check_feasible(p, scheme):
     ways = []                                   # (what to change, steps with it)
     if drag == "explicit":
         ways.append(("-mpm_drag implicit", _estimated_steps(p, "implicit", S)))
-    if p.mass_scaling != "auto" and p.damping > 0:
+    if p.mass_scaling != "auto" and inertia.decay(p)[0] < 1:
         S_auto = inertia.auto_factor(p)
         ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
                      + f"-mpm_mass_scaling auto (S = {S_auto:.3g})",

@@ -9,11 +9,17 @@ weight) leaves c2 and the quasi-static solution as they are and gives c1_S = c1 
 Pi_S = Pi / sqrt(S): S > 1 makes slow scenes feasible, S < 1 makes fast ones accurate.
 
 Two inertia errors at the earliest report time t_r (tau_r = c2 t_r / H^2), in units of q:
-- the wave. Local damping alpha turns a free oscillation into quarter-periods of stiffness
-  (1 + alpha) k outwards and (1 - alpha) k back, so each period multiplies the amplitude by
-  r = (1 - alpha) / (1 + alpha) exactly (a single mode), and lengthens the period to
-  T_d = T_w (1 / sqrt(1 + alpha) + 1 / sqrt(1 - alpha)) / 2. The wave starts at about
-  p0 <= q, so after N = t_r / T_d periods (Pi_S tau_r undamped ones) it is r^N;
+- the wave. It starts at about p0 <= q, and each period of the damped fundamental mode
+  (T_d) multiplies it by r, so after N = t_r / T_d periods it is r^N (``decay``):
+  - local damping alpha turns a free oscillation into quarter-periods of stiffness
+    (1 + alpha) k outwards and (1 - alpha) k back: r = (1 - alpha) / (1 + alpha) exactly
+    (a single mode), T_d = T_w (1 / sqrt(1 + alpha) + 1 / sqrt(1 - alpha)) / 2;
+  - fast-part damping zeta (-mpm_fast_damping; rate c = 2 zeta w1 on v - v_slow, v_slow
+    low-passed at w1 = 2 pi / T_w): the fundamental mode x'' = -w1^2 x - c (x' - s),
+    s' = w1 (x' - s) has the characteristic equation (lambda^2 + w1^2)(lambda + w1)
+    + c lambda^2 = 0, whose complex pair gives r = exp(2 pi Re / Im) and T_d = 2 pi / Im
+    (zeta = 0.5: r = 0.36, T_d = 1.34 T_w);
+  - both: the product of the two r, the local T_d;
 - the drag lag. The relative velocity relaxes to Darcy's at the rate lambda_S = lambda / S
   (``timestep.drag_rate``): the flow, hence p, lags the quasi-static one by about 1/lambda_S,
   an error of about LAG / (lambda_S t_r) = LAG S / (lambda t_r). LAG = 2 is measured: on the
@@ -36,6 +42,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from . import analytic, assembly, timestep
 from .errors import InputError
 
@@ -45,9 +53,19 @@ LAG = 2.0           # measured drag-lag error over the bare 1 / (lambda_S t_r)
 PI_MIN = 300.0      # measured: Pi_S below which a residual oscillation exceeds 0.05 % of q
 
 
-def _stretch(alpha: float) -> float:
-    """T_d / T_w: the period of a locally damped oscillation over the undamped one."""
-    return (1 / math.sqrt(1 + alpha) + 1 / math.sqrt(1 - alpha)) / 2
+def decay(p) -> tuple:
+    """(r, T_d / T_w): amplitude factor per damped period of the fundamental mode, and that
+    period over the undamped one, under local and fast-part damping (module docstring)."""
+    alpha, zeta = p.damping, getattr(p, "fast_damping", 0.0)
+    r, stretch = 1.0, 1.0
+    if zeta > 0:
+        # In units of w1: (l^2 + 1)(l + 1) + 2 zeta l^2 = l^3 + (1 + 2 zeta) l^2 + l + 1.
+        pair = max(np.roots([1.0, 1.0 + 2 * zeta, 1.0, 1.0]), key=lambda z: abs(z.imag))
+        r, stretch = math.exp(2 * math.pi * pair.real / abs(pair.imag)), 1 / abs(pair.imag)
+    if alpha > 0:
+        r *= (1 - alpha) / (1 + alpha)
+        stretch = (1 / math.sqrt(1 + alpha) + 1 / math.sqrt(1 - alpha)) / 2
+    return r, stretch
 
 
 def _times(p):
@@ -64,27 +82,30 @@ def regime(p, S: float = 1.0) -> dict:
     the wave periods before the earliest report, both error estimates (fractions of q)."""
     T_w, T_c, t_r = _times(p)
     Pi = T_c / T_w
-    periods = t_r / (T_w * math.sqrt(S) * _stretch(p.damping))
-    r = (1 - p.damping) / (1 + p.damping)
+    r, stretch = decay(p)
+    periods = t_r / (T_w * math.sqrt(S) * stretch)
     return {"wave_period_s": T_w, "consolidation_time_s": T_c, "Pi": Pi,
             "mass_scaling": S, "Pi_S": Pi / math.sqrt(S), "wave_period_scaled_s":
             T_w * math.sqrt(S), "first_report_Tv": min(p.Tv_report), "first_report_s": t_r,
             "periods_to_first_report": periods, "wave_error": r ** periods,
             "drag_lag_error": LAG * S / (timestep.drag_rate(p) * t_r),
             "tolerance": TOLERANCE, "visible": VISIBLE, "Pi_S_min": PI_MIN,
-            "criterion": "wave error ((1 - alpha)/(1 + alpha))^(t_r / T_d) (T_d the damped "
-                         "period of the scaled wave) and drag lag "
+            "criterion": "wave error r^(t_r / T_d) (r the decay per damped period T_d of "
+                         "the scaled wave's fundamental mode, local or fast-part damping) and "
+                         "drag lag "
                          "2 S / (lambda t_r) at the earliest report time t_r, in units of q"}
 
 
 def auto_factor(p) -> float:
     """The largest S whose two inertia errors stay within TOLERANCE (module docstring)."""
-    if p.damping <= 0:
-        raise InputError("-mpm_mass_scaling auto: needs local damping (-mpm_damping > 0), "
-                         "without which the undrained wave does not decay; give a factor S")
+    r, stretch = decay(p)
+    if r >= 1:
+        raise InputError("-mpm_mass_scaling auto: needs damping (-mpm_fast_damping or "
+                         "-mpm_damping > 0), without which the undrained wave does not decay; "
+                         "give a factor S")
     T_w, T_c, t_r = _times(p)
-    periods = math.log(1 / TOLERANCE) / math.log((1 + p.damping) / (1 - p.damping))
-    wave = (t_r / (T_w * _stretch(p.damping) * periods)) ** 2   # t_r is `periods` periods
+    periods = math.log(1 / TOLERANCE) / math.log(1 / r)
+    wave = (t_r / (T_w * stretch * periods)) ** 2   # t_r is `periods` periods
     drag = TOLERANCE * timestep.drag_rate(p) * t_r / LAG
     floor = (T_c / T_w / PI_MIN) ** 2
     return float(f"{min(wave, drag, floor):.3g}")   # 3 digits: the same on every rank count

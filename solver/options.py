@@ -144,18 +144,19 @@ SPEC = [
            "default: the highest material point below mid-height", (CONSOLIDATION,)),
     Option("output_every", "int", 0, "write point fields every N steps (0: at report times)",
            (CONSOLIDATION,), _nonnegative),
-    Option("damping", "float", 0.5, "local (Cundall) damping coefficient of the nodal "
-           "accelerations, 0 for none", (CONSOLIDATION,),
+    Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "
+           "accelerations, 0 for none (it opposes the settlement too: docs/studies.md)",
+           (CONSOLIDATION,),
            lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
     Option("bulk_viscosity", "float", 0.0, "linear bulk viscosity b1: a viscous stress "
            "b1 rho c1 h div(v_s) on the mixture (rho, c1 with the scaled inertia, h the "
            "smaller cell size), which damps the wave near the cell scale; 0 for none",
            (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
-    Option("fast_damping", "float", 0.0, "damping ratio zeta of the fast part of the "
+    Option("fast_damping", "float", 0.5, "damping ratio zeta of the fast part of the "
            "mixture's motion: point velocities lose 2 zeta w1 (v_m - v_slow) per second, "
            "v_slow their mixture velocity low-passed over 1/w1 (w1 = 2 pi / T_w, T_w the "
-           "scaled wave period 4H/c1); both phases alike, so Darcy flow is untouched; 0 for "
-           "none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
+           "scaled wave period 4H/c1); both phases alike, so Darcy flow is untouched; takes "
+           "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
     Option("flip", "float", 1.0, "FLIP fraction of the point velocity update (0: PIC)",
            (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
     Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",

@@ -187,6 +187,44 @@ def test_auto_columns_within_one_percent(cli, k):
     assert all(abs(e) < 1.0 for e in err.values()), err
 
 
+# -- damping without bias ------------------------------------------------------------------
+def _errors_of_q(s):
+    """Errors at the monitor against compressible-water Terzaghi, % of q, by T_v."""
+    depth = 1.0 - s["monitor"]["height"]
+    return {Tv: 100 * (num - terzaghi(depth, Tv * s["c2"] / s["c_v"], 1.0,
+                                      s["p0_consistent_over_q"]))
+            for Tv, num in zip(s["monitor"]["Tv"], s["monitor"]["p_over_q"])}
+
+
+def test_fast_damping_leaves_the_settlement_alone(cli, tmp_path):
+    """The E = 1e8 column (Pi ~ 59) unscaled, 1 x 40 Q4 cells with 1 point each: local
+    damping, which opposes every motion, biases p at T_v = 0.5 by 0.2 % of q; fast-part
+    damping, which acts on the motion faster than the wave's own frequency, takes the wave
+    out as well and leaves p at T_v = 0.5 and 1 within 0.05 % of q."""
+    args = QUIET + ["-mpm_mass_scaling", "none", "-mpm_ppc", "1", "-mpm_k", "2.5e-4",
+                    "-mpm_Tv_report", "0.1,0.5,1"]
+    local = _errors_of_q(check_ok(cli(args + ["-mpm_damping", "0.5"], timeout=300,
+                                      options_file="consolidation-stiff",
+                                      out_dir=tmp_path / "local")))
+    fast = _errors_of_q(check_ok(cli(args + ["-mpm_damping", "0", "-mpm_fast_damping", "0.5"],
+                                     options_file="consolidation-stiff", timeout=300,
+                                     out_dir=tmp_path / "fast")))
+    assert abs(local[0.5]) > 0.15, local
+    assert abs(fast[0.5]) < 0.05 and abs(fast[1.0]) < 0.05, fast
+    assert abs(fast[0.1]) < 5.0, fast
+
+
+def test_bulk_viscosity_limit_is_safe(cli, tmp_path):
+    """The viscous stress shrinks the step's limit below the dense analysis of the undamped
+    step; the factor applied (timestep.viscous_factor) keeps runs at 0.97 x the reported
+    limit stable for b1 = 0.1 and 0.5, and stays within 15 % of the measured limit."""
+    for b1 in ("0.1", "0.5"):
+        extra = ["-mpm_drag", "implicit", "-mpm_bulk_viscosity", b1]
+        lim = _limits(cli, tmp_path / b1, "m1-q4", extra)["discrete"]
+        assert _stable(cli, tmp_path / b1, "m1-q4", 0.97 * lim, extra, "below")
+        assert not _stable(cli, tmp_path / b1, "m1-q4", 1.2 * lim, extra, "above")
+
+
 def test_clay_scene(cli, tmp_path):
     """Hours of consolidation in seconds: within 2 % at T_v = 0.1 and 0.5; without mass
     scaling the scene is refused at once, naming the option."""
