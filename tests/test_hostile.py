@@ -173,7 +173,7 @@ def test_non_finite_values_are_caught():
     from solver.errors import NumericalError
     from solver.grid import Grid
     from solver.points import place
-    from solver.twophase import POINT_FIELDS, TwoPhase
+    from solver.twophase import TwoPhase, point_fields
 
     db = PETSc.Options()
     for key in list(db.getAll()):
@@ -184,7 +184,7 @@ def test_non_finite_values_are_caught():
     finally:
         db.delValue("mpm_analysis")
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", POINT_FIELDS)
+    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", point_fields(p))
     with points.fields("J", "id") as (J, ids):
         J[:] = 1.0
         ids[:] = np.arange(len(ids))

@@ -38,7 +38,7 @@ def _model(**opts):
 
     p = _params(**opts)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), p.points, twophase.POINT_FIELDS)
+    points = place(grid, p.ppc, eigen.mixture_density(p), p.points, twophase.point_fields(p))
     model = twophase.TwoPhase(grid, points, p, eigen.boundary_conditions(p),
                               assembly.step_scheme(p))
     return p, grid, points, model
