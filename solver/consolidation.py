@@ -549,7 +549,7 @@ def _isochrone_figure(plt, p, profiles, ratio, p0):
         ax.plot(prof[:, 1] / load_scale(p), prof[:, 0], "o", color=col, ms=3, mfc="none",
                 label=None if i else "MPM points")
     ax.set_title(f"Isochrones, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
-    ax.legend(fontsize=7, loc="lower left")
+    figures.legend_below(ax, ncol=2)
     return fig
 
 

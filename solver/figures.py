@@ -35,13 +35,16 @@ def isochrone_references(ax, Tvs, colors, H: float, ratio: float, p0: float):
         ax.plot(analytic.terzaghi(depth, Tv, H), H - depth, color=col, **CLASSIC)
         ax.plot(analytic.terzaghi(depth, Tv * ratio, H, p0), H - depth, color=col,
                 **COMPRESSIBLE)
-        # Labels left of their curves at staggered heights, early times high: there the
-        # later (left) curves are far away.
+        # Labels beside their curves at staggered heights, early times high: there the
+        # later curves (to the left) are far away. Left of the curve, unless it runs close
+        # to the axis.
         y = H * (0.06 + 0.8 * (n - i - 0.5) / n)
         x = float(analytic.terzaghi(H - y, Tv, H))
-        ax.annotate(f"T_v = {Tv:g}", (x, y), xytext=(-4, 0), textcoords="offset points",
-                    ha="right", va="center", fontsize=7, color=col,
-                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+        left = x > 0.25
+        ax.annotate(f"T_v = {Tv:g}", (x, y), xytext=(-4 if left else 4, 0),
+                    textcoords="offset points", ha="right" if left else "left",
+                    va="center", fontsize=7, color=col, zorder=5,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
     ax.plot([], [], color="k", label="Terzaghi, classic", **CLASSIC)
     ax.plot([], [], color="k", label="Terzaghi, compressible water", **COMPRESSIBLE)
     ax.set_xlabel("excess pore pressure p / q (-)")
@@ -49,6 +52,12 @@ def isochrone_references(ax, Tvs, colors, H: float, ratio: float, p0: float):
     ax.set_xlim(0, 1.1)
     ax.set_ylim(0, H)
     ax.grid(alpha=0.3)
+
+
+def legend_below(ax, ncol: int = 2):
+    """The axes' legend under its x label, where it covers no curve."""
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=ncol,
+              frameon=False)
 
 
 def pressure_field(plt, snapshots, q: float, title: str, width: float = None):
