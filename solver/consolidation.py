@@ -19,8 +19,8 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (analytic, assembly, checkpoint, eigen, inertia, jacobi, memory, output,
-               timestep, workprecision)
+from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
+               output, timestep, workprecision)
 from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
@@ -515,52 +515,58 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
     with output.atomic(files["profiles_csv"]) as tmp:
         np.savetxt(tmp, np.concatenate(rows) if rows else np.zeros((0, 6)), delimiter=",",
                    header="Tv,t_s,x_m,y0_m,p_over_q,volume_m3", comments="")
-    if not p.figures:
-        return files
+    if p.figures:
+        files.update(_figures(p, profiles, hist, c2 / cv, p0, monitor_height))
+    return files
+
+
+def _figures(p, profiles, hist, ratio, p0, monitor_height):
+    """isochrones.png, pressure_field.png and monitor.png; ``ratio`` = c2 / c_v and ``p0`` =
+    p0 / q scale the compressible-water reference."""
     plt = output.pyplot()
-    H, q = p.size[1], load_scale(p)
-    files["isochrones_png"] = os.path.join(p.output, "isochrones.png")
-    fig, ax = plt.subplots(figsize=(6, 6))
-    z = np.linspace(0, H, 300)
-    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(profiles), 1)))
-    for (Tv, _, prof), col in zip(profiles, colors):
-        ax.plot(analytic.terzaghi(z, Tv, H), H - z, "-", color=col, lw=1.2)
-        ax.plot(analytic.terzaghi(z, Tv * c2 / cv, H, p0), H - z, ":", color=col, lw=1)
-        ax.plot(prof[:, 1] / q, prof[:, 0], "o", color=col, ms=3, label=f"T_v = {Tv:g}")
-    ax.plot([], [], "k-", label="Terzaghi (classic)")
-    ax.plot([], [], "k:", label="Terzaghi (compressible water)")
-    ax.set_xlabel("p / q")
-    ax.set_ylabel("height (m)")
-    ax.set_xlim(0, 1.1)
-    ax.set_title(f"Isochrones, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
-    ax.legend(fontsize=7, loc="lower left")
-    ax.grid(alpha=0.3)
-    output.save_figure(fig, files["isochrones_png"])
-
-    files["pressure_field_png"] = os.path.join(p.output, "pressure_field.png")
+    files = {"isochrones_png": os.path.join(p.output, "isochrones.png"),
+             "pressure_field_png": os.path.join(p.output, "pressure_field.png"),
+             "monitor_png": os.path.join(p.output, "monitor.png")}
+    output.save_figure(_isochrone_figure(plt, p, profiles, ratio, p0),
+                       files["isochrones_png"])
     shown = [pr for pr in profiles if pr[0] in p.Tv_report] or profiles[-1:]
-    fig, axes = plt.subplots(1, len(shown), figsize=(2.2 * len(shown) + 1, 6), squeeze=False)
-    for ax, (Tv, _, prof) in zip(axes[0], shown):
-        sc = ax.scatter(prof[:, 3], prof[:, 0], c=prof[:, 1] / 1e3, s=12, cmap="jet",
-                        vmin=0, vmax=q / 1e3)
-        ax.set_title(f"T_v = {Tv:g}", fontsize=9)
-        ax.set_aspect("equal")
-        ax.set_xticks([])
-    fig.colorbar(sc, ax=list(axes[0]), label="pore pressure (kPa)")
-    fig.suptitle(f"Pore pressure field, {p.element.upper()}, {len(shown[0][2])} MPs")
+    fig = figures.pressure_field(
+        plt, [(Tv, prof[:, 3], prof[:, 0], prof[:, 1]) for Tv, _, prof in shown],
+        load_scale(p), f"Pore pressure field, {p.element.upper()}, {len(shown[0][2])} MPs",
+        width=p.size[0])
     output.save_figure(fig, files["pressure_field_png"])
+    output.save_figure(_monitor_figure(plt, p, hist, ratio, p0, monitor_height),
+                       files["monitor_png"])
+    return files
 
-    files["monitor_png"] = os.path.join(p.output, "monitor.png")
+
+def _isochrone_figure(plt, p, profiles, ratio, p0):
+    """The points' p / q at each report time over both references, coloured by T_v."""
+    fig, ax = plt.subplots(figsize=(6, 6))
+    colors = figures.tv_colors(plt, len(profiles))
+    figures.isochrone_references(ax, [Tv for Tv, _, _ in profiles], colors, p.size[1], ratio,
+                                 p0)
+    for i, ((Tv, _, prof), col) in enumerate(zip(profiles, colors)):
+        ax.plot(prof[:, 1] / load_scale(p), prof[:, 0], "o", color=col, ms=3, mfc="none",
+                label=None if i else "MPM points")
+    ax.set_title(f"Isochrones, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
+    figures.legend_below(ax, ncol=2)
+    return fig
+
+
+def _monitor_figure(plt, p, hist, ratio, p0, monitor_height):
+    """p / q at the monitor point against T_v, with both references at its depth."""
+    H = p.size[1]
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.plot(hist[:, 1], hist[:, 2], lw=0.8, label="MPM")
-    Tv = np.linspace(1e-4, p.Tv_end, 400)
-    ax.plot(Tv, analytic.terzaghi(H - monitor_height, Tv, H), "k-", lw=1, label="Terzaghi")
-    ax.plot(Tv, analytic.terzaghi(H - monitor_height, Tv * c2 / cv, H, p0), "k:", lw=1,
-            label="compressible water")
+    Tv = np.geomspace(1e-4, p.Tv_end, 400)
+    ax.plot(Tv, analytic.terzaghi(H - monitor_height, Tv, H), color="k",
+            label="Terzaghi, classic", **figures.CLASSIC)
+    ax.plot(Tv, analytic.terzaghi(H - monitor_height, Tv * ratio, H, p0), color="k",
+            label="Terzaghi, compressible water", **figures.COMPRESSIBLE)
     ax.set_xscale("log")
-    ax.set_xlabel("T_v")
-    ax.set_ylabel("p / q at the monitor point")
+    ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
+    ax.set_ylabel(f"p / q at {monitor_height:.4g} m (-)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    output.save_figure(fig, files["monitor_png"])
-    return files
+    return fig

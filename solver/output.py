@@ -1,4 +1,5 @@
-"""Results on disk: JSON summaries, VTU fields (meshio) and PNG figures, written whole.
+"""Results on disk: JSON summaries, VTU fields (meshio) and figures (PNG, PDF, SVG), written
+whole.
 
 Every file is written to a temporary name in the same folder and renamed into place, so a job
 killed mid-write leaves the previous version or nothing, never a truncated file. Only rank 0
@@ -93,13 +94,51 @@ def write_vtu(path, points, cells, point_data=None, cell_data=None):
         meshio.write(tmp, mesh, file_format="vtu")
 
 
-def save_figure(fig, path, dpi=150):
-    """Save a Matplotlib figure as PNG, whole, and close it."""
+# Formats save_figure writes: PNG for the reports and the docs, PDF and SVG (vector) for
+# papers and slides.
+FIGURE_FORMATS = ("png", "pdf", "svg")
+
+
+def figure_formats(spec="png") -> tuple:
+    """The figure formats named by ``spec``: "png,pdf" or a sequence of names, checked against
+    FIGURE_FORMATS, duplicates dropped, order kept. ValueError for an unknown name."""
+    names = spec.split(",") if isinstance(spec, str) else list(spec)
+    names = [n.strip().lower().lstrip(".") for n in names if n.strip()]
+    bad = [n for n in names if n not in FIGURE_FORMATS]
+    if bad or not names:
+        raise ValueError(f"{','.join(bad) or 'nothing'}: not a figure format "
+                         f"(choose from {', '.join(FIGURE_FORMATS)})")
+    return tuple(dict.fromkeys(names))
+
+
+def save_figure(fig, path, dpi=150, formats=("png",)):
+    """Save a Matplotlib figure, each file whole, and close it; return the paths written.
+
+    ``path`` names the figure (its extension is replaced); one file per format in
+    ``formats`` ("png", "pdf", "svg", or a string "png,pdf"), side by side: ``x.png``,
+    ``x.pdf``. ``dpi`` sets the resolution of the PNG (dots per inch); PDF and SVG are
+    vector files.
+    """
+    import matplotlib
     import matplotlib.pyplot as plt
 
-    with atomic(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
-    plt.close(fig)
+    stem = os.path.splitext(path)[0]
+    written = []
+    try:
+        for fmt in figure_formats(formats):
+            target = f"{stem}.{fmt}"
+            # No date and fixed SVG ids: the same figure gives the same file, so tracked
+            # figures change only when their content does.
+            with atomic(target) as tmp, matplotlib.rc_context({"svg.hashsalt": "mpm-geo"}):
+                fig.savefig(tmp, dpi=dpi, format=fmt, bbox_inches="tight",
+                            metadata=_NO_DATE.get(fmt))
+            written.append(target)
+    finally:
+        plt.close(fig)
+    return written
+
+
+_NO_DATE = {"pdf": {"CreationDate": None}, "svg": {"Date": None}}
 
 
 def pyplot():

@@ -1,17 +1,21 @@
 """The study machinery: -mpm_target_error against the shipped work-precision data, the
 stability map's blow-up detection against the discrete limit, the batch runner, and the
-outputs the study scripts read (profiles.csv, -mpm_stability_analysis 0)."""
+outputs the study scripts read (profiles.csv, -mpm_stability_analysis 0), and the study
+scripts themselves: executables from a shell whose python3 lacks petsc4py, help for every
+option, results under output/ unless published, convergence charts."""
 
 from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
 
 import numpy as np
 import pytest
-from conftest import PYTHON, REPO, check_ok, run_command
+from conftest import PYTHON, REPO, check_ok, clean_env, run_command
 
-from solver import study, workprecision
+from solver import output, study, workprecision
 
 SHORT = ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02", "-mpm_progress", "0",
          "-mpm_figures", "0"]
@@ -156,3 +160,202 @@ def test_one_point_per_q4_cell_runs_at_the_drag_limit(cli):
                "-mpm_dt", repr(0.99 * lim["discrete"])] + SHORT,
               options_file="consolidation-m1-q4")
     assert check_ok(res)["stable"] is True
+
+
+# -- the study scripts as executables ---------------------------------------------------
+SCRIPTS = ("reproduce-paper", "convergence-study", "eigen-study")
+
+
+def _script_env(tmp_path, python=None):
+    """A shell whose first python3 has no petsc4py (nor numpy: -I -S drops every
+    site-packages), as a fresh shell with a pyenv first on PATH has; the scripts fall back
+    to ``python`` ($MPM_GEO_PYTHON; default this test's interpreter)."""
+    bare = tmp_path / "bin" / "python3"
+    bare.parent.mkdir(exist_ok=True)
+    bare.write_text(f'#!/bin/sh\nexec "{PYTHON}" -I -S "$@"\n')
+    bare.chmod(0o755)
+    env = clean_env()
+    env["PATH"] = f"{bare.parent}{os.pathsep}{env.get('PATH', '')}"
+    env["MPM_GEO_PYTHON"] = str(python or PYTHON)
+    env.pop("PYTHONPATH", None)
+    return env, bare
+
+
+def _run_script(name, args, env, cwd):
+    return subprocess.run([str(REPO / "scripts" / name), *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=120)
+
+
+def _option_entries(help_text):
+    """(invocation, help) of each option in argparse's --help output."""
+    body = help_text.split("options:", 1)[1].splitlines()
+    entries = []
+    for line in body:
+        if line.startswith("  -"):
+            head, _, text = line[2:].partition("  ")
+            entries.append([head.strip(), text.strip()])
+        elif line.strip() and entries:
+            entries[-1][1] += " " + line.strip()
+    return entries
+
+
+@pytest.mark.parametrize("name", SCRIPTS)
+def test_script_runs_as_an_executable_and_every_option_has_help(name, tmp_path):
+    env, bare = _script_env(tmp_path)
+    # The bare interpreter really lacks petsc4py (the case the scripts must survive).
+    probe = subprocess.run([str(bare), "-c", "import petsc4py"], capture_output=True,
+                           env=env)
+    assert probe.returncode != 0
+    res = _run_script(name, ["--help"], env, tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith(f"usage: {name}")
+    entries = _option_entries(res.stdout)
+    assert len(entries) >= 6
+    for head, text in entries:
+        assert len(text) > 10, f"{name}: {head} has no help text"
+    for flag in ("--publish", "--formats", "--dry-run", "--out"):
+        assert any(head.startswith(flag) for head, _ in entries), flag
+
+
+def test_script_without_a_petsc_python_says_what_to_do(tmp_path):
+    env, bare = _script_env(tmp_path, python=tmp_path / "nowhere" / "python")
+    res = _run_script("reproduce-paper", ["--help"], env, tmp_path)
+    assert res.returncode == 2 and res.stdout == ""
+    assert res.stderr.count("\n") == 1
+    assert "petsc4py cannot be imported" in res.stderr and "scripts/install" in res.stderr
+    # Pointing at another Python without petsc4py stops after one try, no loop.
+    env["MPM_GEO_PYTHON"] = str(bare)
+    res = _run_script("eigen-study", ["--help"], env, tmp_path)
+    assert res.returncode == 2 and "has no petsc4py either" in res.stderr
+
+
+def _dry(name, args, tmp_path):
+    env, _ = _script_env(tmp_path)
+    return _run_script(name, ["--dry-run", *args], env, tmp_path)
+
+
+@pytest.mark.parametrize("name, folder", [("reproduce-paper", "paper"),
+                                          ("convergence-study", "convergence"),
+                                          ("eigen-study", "eigen")])
+def test_scripts_write_under_output_unless_published(name, folder, tmp_path):
+    res = _dry(name, [], tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert f"results: {REPO / 'output' / 'studies' / folder}\n" in res.stdout
+    res = _dry(name, ["--publish"], tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert f"results: {REPO / 'docs' / 'results'}\n" in res.stdout
+    res = _dry(name, ["--out", str(tmp_path / "x")], tmp_path)
+    assert f"results: {tmp_path / 'x'}\n" in res.stdout
+    res = _dry(name, ["--formats", "png,jpg"], tmp_path)
+    assert res.returncode == 2 and "jpg: not a figure format" in res.stderr
+
+
+def test_convergence_study_publishes_the_shipped_data_only_for_the_whole_study(tmp_path):
+    res = _dry("convergence-study", [], tmp_path)
+    assert (f"work-precision data: {REPO / 'output' / 'studies' / 'convergence'}"
+            "/work_precision.json\n") in res.stdout
+    assert "Convergence study of cases/consolidation-m1-q4.opts: 40 runs" in res.stdout
+    res = _dry("convergence-study", ["--publish"], tmp_path)
+    assert f"work-precision data: {workprecision.DEFAULT}\n" in res.stdout
+    for bad in (["--quick"], ["-options_file", "cases/consolidation-m2-q4.opts"],
+                ["--data", "x.json"]):
+        res = _dry("convergence-study", ["--publish", *bad], tmp_path)
+        assert res.returncode == 2 and "--publish writes the tracked results" in res.stderr
+    res = _dry("convergence-study", ["--quick"], tmp_path)
+    assert ": 6 runs" in res.stdout
+
+
+def _convergence_module():
+    import importlib.machinery
+    import importlib.util
+
+    loader = importlib.machinery.SourceFileLoader("convergence_study",
+                                                  str(REPO / "scripts" / "convergence-study"))
+    spec = importlib.util.spec_from_loader(loader.name, loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def test_convergence_orders_read_as_orders_or_not_converging():
+    mod = _convergence_module()
+    assert mod.order_text(1.0234) == "order 1.02"
+    assert mod.order_text(0.08) == "error stalls (slope 0.08)"
+    assert mod.order_text(-0.4) == "not converging"
+    assert mod.order_text(0.0) == "not converging"
+    assert mod.order_text(math.nan) == "one run, no order"
+    # The fit itself: errors 4, 2, 1 over h = 1/10, 1/20, 1/40 are first order; growing
+    # errors give a negative slope, which the charts call not converging.
+    rows = [{"cells": [1, n], "e": e} for n, e in ((10, 4.0), (20, 2.0), (40, 1.0))]
+    assert mod.order(rows, "e") == pytest.approx(1.0, rel=1e-12)
+    rows = [{"cells": [1, n], "e": e} for n, e in ((10, 1.0), (20, 1.5), (40, 2.0))]
+    assert mod.order(rows, "e") < 0
+
+
+def _synthetic_rows():
+    """A study's rows: Q4 converging at first order, Q9 with growing errors, Q8 stalling;
+    runs off the series at nearly the same places, so that their labels would collide."""
+    rows = []
+
+    def row(series, e, cells, err, ppc=2, safety=0.5, variant=""):
+        cost = cells[0] * cells[1] * ppc ** 2 * 1000.0 * cells[1]
+        rows.append({"series": series, "variant": variant, "element": e, "cells": cells,
+                     "ppc": ppc, "dt_safety": safety, "stable": True, "cost": cost,
+                     "wall_seconds": cost * 1e-6, "monitor_classic": 3 + err,
+                     "monitor_consistent": err, "l2_classic": 0.003 + err / 1e3,
+                     "l2_consistent": err / 1e3})
+
+    for n in (10, 20, 40, 80):
+        row("refine", "q4", (1, n), 4.0 * 10 / n)
+        row("refine", "q9", (1, n // 2), 0.5 * n / 10)
+        row("refine", "q8", (1, n // 2), (10 / n) ** 0.1)
+    for k in (1, 3, 4):
+        row("ppc", "q4", (1, 20), 2.0 * (1 + 0.01 * k), ppc=k)
+    for s in (0.25, 0.9):
+        row("dt", "q4", (1, 20), 2.0 * (1 + 0.01 * s), safety=s)
+    row("wide", "q4", (2, 20), 2.0)
+    row("variant", "q4", (1, 20), 1.5, variant="moving points")
+    return rows
+
+
+def test_convergence_charts_have_no_overlapping_labels_and_no_negative_orders(tmp_path):
+    mod = _convergence_module()
+    rows = _synthetic_rows()
+    orders = {}
+    for e in mod.PPC:
+        ser = sorted((r for r in rows if r["series"] == "refine" and r["element"] == e),
+                     key=lambda r: r["cells"][1])
+        orders[e] = {k: mod.order(ser, k) for k in ("monitor_classic", "monitor_consistent",
+                                                    "l2_classic", "l2_consistent")}
+    assert orders["q4"]["monitor_consistent"] == pytest.approx(1.0, rel=1e-9)
+    assert orders["q9"]["monitor_consistent"] == pytest.approx(-1.0, rel=1e-9)
+
+    plt = output.pyplot()
+    drawn = []
+    real_save = output.save_figure
+
+    def keep(fig, path, **kw):          # look at the figure before it is saved and closed
+        renderer = fig.canvas.get_renderer()     # drawn by draw() already
+        texts = [t for ax in fig.axes for t in ax.texts]
+        drawn.append((path, [t.get_window_extent(renderer) for t in texts],
+                      [t.get_text() for lg in fig.legends for t in lg.get_texts()]))
+        return real_save(fig, path, **kw)
+
+    mod.output.save_figure = keep
+    mod.PANELS = mod.PANELS[:1]          # the monitor chart (the L2 one is drawn alike)
+    try:
+        mod.draw(rows, orders, str(tmp_path), formats=("png", "pdf"))
+    finally:
+        mod.output.save_figure = real_save
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "convergence-monitor.pdf", "convergence-monitor.png"]
+    for path, boxes, legend in drawn:
+        assert len(boxes) >= 6
+        for i, a in enumerate(boxes):
+            assert not any(a.overlaps(b) for b in boxes[i + 1:]), path
+        text = " ".join(legend)
+        assert "Q4, 1 x 10 to 1 x 80 cells: order 1.00" in text
+        assert "Q9, 1 x 5 to 1 x 40 cells: not converging" in text
+        assert "Q8, 1 x 5 to 1 x 40 cells: error stalls" in text
+        assert "order -" not in text
+    assert not plt.get_fignums()

@@ -1,0 +1,80 @@
+"""Consolidation figures shared by the solver and ``scripts/reproduce-paper``: isochrones
+against both Terzaghi references (classic and compressible water), and the pore-pressure field.
+
+Heights and widths in m, pore pressure in kPa or normalised by the load q (p / q), the time
+factor T_v dimensionless. The caller makes the figure (``output.pyplot()``) and saves it
+(``output.save_figure``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import analytic
+
+# Perceptually uniform and readable in grey and by colour-blind readers; a rainbow map such
+# as "jet" shows bands that are not in the data.
+PRESSURE_CMAP = "viridis"
+CLASSIC = dict(ls="-", lw=1.2)
+COMPRESSIBLE = dict(ls=":", lw=1.2)
+
+
+def tv_colors(plt, n: int):
+    """One colour per report time, early (dark) to late (light), from the same map."""
+    return plt.get_cmap(PRESSURE_CMAP)(np.linspace(0.0, 0.85, max(n, 1)))
+
+
+def isochrone_references(ax, Tvs, colors, H: float, ratio: float, p0: float):
+    """Draw, per T_v, classic Terzaghi (solid) and compressible-water Terzaghi (dotted,
+    T_v scaled by ``ratio`` = c2 / c_v, start ``p0`` = p0 / q) as p / q against height (m),
+    in the T_v's colour, with its T_v written beside the classic curve; legend entries for
+    the two line styles. ``H``: the layer thickness (m)."""
+    depth = np.linspace(0.0, H, 300)
+    n = len(Tvs)
+    for i, (Tv, col) in enumerate(zip(Tvs, colors)):
+        ax.plot(analytic.terzaghi(depth, Tv, H), H - depth, color=col, **CLASSIC)
+        ax.plot(analytic.terzaghi(depth, Tv * ratio, H, p0), H - depth, color=col,
+                **COMPRESSIBLE)
+        # Labels beside their curves at staggered heights, early times high: there the
+        # later curves (to the left) are far away. Left of the curve, unless it runs close
+        # to the axis.
+        y = H * (0.06 + 0.8 * (n - i - 0.5) / n)
+        x = float(analytic.terzaghi(H - y, Tv, H))
+        left = x > 0.25
+        ax.annotate(f"T_v = {Tv:g}", (x, y), xytext=(-4 if left else 4, 0),
+                    textcoords="offset points", ha="right" if left else "left",
+                    va="center", fontsize=7, color=col, zorder=5,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
+    ax.plot([], [], color="k", label="Terzaghi, classic", **CLASSIC)
+    ax.plot([], [], color="k", label="Terzaghi, compressible water", **COMPRESSIBLE)
+    ax.set_xlabel("excess pore pressure p / q (-)")
+    ax.set_ylabel("height above the base (m)")
+    ax.set_xlim(0, 1.1)
+    ax.set_ylim(0, H)
+    ax.grid(alpha=0.3)
+
+
+def legend_below(ax, ncol: int = 2):
+    """The axes' legend under its x label, where it covers no curve."""
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=ncol,
+              frameon=False)
+
+
+def pressure_field(plt, snapshots, q: float, title: str, width: float = None):
+    """A figure of the pore-pressure field, one panel per snapshot (T_v, x (m), height (m),
+    p (Pa)) of the points, on one colour scale from 0 to the load ``q`` (Pa), in kPa."""
+    n = len(snapshots)
+    fig, axes = plt.subplots(1, n, figsize=(2.2 * n + 1.6, 6), squeeze=False, sharey=True)
+    for ax, (Tv, x, y, pp) in zip(axes[0], snapshots):
+        sc = ax.scatter(x, y, c=np.asarray(pp) / 1e3, s=12, cmap=PRESSURE_CMAP, vmin=0,
+                        vmax=q / 1e3)
+        ax.set_title(f"T_v = {Tv:g}", fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        if width:
+            ax.set_xticks([0, width])
+            ax.set_xlim(0, width)
+    axes[0, 0].set_ylabel("height above the base (m)")
+    fig.colorbar(sc, ax=list(axes[0]), label="excess pore pressure (kPa)")
+    fig.suptitle(title)
+    return fig

@@ -1,0 +1,92 @@
+"""Figures: every format on request (output.save_figure), the consolidation figures'
+references, labels, units and colour map (solver.figures)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_analytic import reference
+
+from solver import figures, output
+
+
+def _figure():
+    plt = output.pyplot()
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    return plt, fig
+
+
+def test_save_figure_writes_each_format_whole(tmp_path):
+    plt, fig = _figure()
+    written = output.save_figure(fig, str(tmp_path / "a.png"), formats="png,pdf,svg")
+    assert written == [str(tmp_path / f"a.{x}") for x in ("png", "pdf", "svg")]
+    heads = {x: (tmp_path / f"a.{x}").read_bytes()[:64] for x in ("png", "pdf", "svg")}
+    assert heads["png"].startswith(b"\x89PNG") and heads["pdf"].startswith(b"%PDF")
+    assert b"<svg" in (tmp_path / "a.svg").read_bytes()[:2000]
+    assert not plt.fignum_exists(fig.number)                     # closed
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.pdf", "a.png", "a.svg"]
+
+
+def test_save_figure_default_is_png_only_and_vector_files_are_reproducible(tmp_path):
+    _, fig = _figure()
+    assert output.save_figure(fig, str(tmp_path / "b.png")) == [str(tmp_path / "b.png")]
+    assert [p.name for p in tmp_path.iterdir()] == ["b.png"]
+    for run in ("1", "2"):
+        _, fig = _figure()
+        output.save_figure(fig, str(tmp_path / run / "c.png"), formats=("pdf", "svg"))
+    for ext in ("pdf", "svg"):       # no creation date: the same figure gives the same file
+        assert (tmp_path / "1" / f"c.{ext}").read_bytes() == \
+            (tmp_path / "2" / f"c.{ext}").read_bytes()
+
+
+@pytest.mark.parametrize("spec, want", [("png", ("png",)), ("PDF, png,pdf", ("pdf", "png")),
+                                        (["svg"], ("svg",)), (".pdf", ("pdf",))])
+def test_figure_formats(spec, want):
+    assert output.figure_formats(spec) == want
+
+
+@pytest.mark.parametrize("spec", ["jpg", "png,eps", "", ","])
+def test_figure_formats_rejects(spec):
+    with pytest.raises(ValueError, match="not a figure format"):
+        output.figure_formats(spec)
+
+
+def test_isochrones_draw_both_references_labelled_by_tv():
+    plt = output.pyplot()
+    fig, ax = plt.subplots()
+    tvs, H, ratio, p0 = [0.02, 0.1, 0.5], 2.0, 0.9756, 0.9756
+    figures.isochrone_references(ax, tvs, figures.tv_colors(plt, 3), H, ratio, p0)
+    lines = [ln for ln in ax.get_lines() if len(ln.get_xdata())]
+    assert len(lines) == 2 * len(tvs)
+    for i, tv in enumerate(tvs):
+        for ln, t, scale in ((lines[2 * i], tv, 1.0), (lines[2 * i + 1], tv * ratio, p0)):
+            height = np.asarray(ln.get_ydata())
+            want = scale * reference((H - height) / H, t)
+            assert np.max(np.abs(np.asarray(ln.get_xdata()) - want)) < 1e-10
+        assert lines[2 * i].get_linestyle() == "-" and lines[2 * i + 1].get_linestyle() == ":"
+    assert [t.get_text() for t in ax.texts] == ["T_v = 0.02", "T_v = 0.1", "T_v = 0.5"]
+    legend = [ln.get_label() for ln in ax.get_lines() if not len(ln.get_xdata())]
+    assert legend == ["Terzaghi, classic", "Terzaghi, compressible water"]
+    assert "(m)" in ax.get_ylabel() and "p / q" in ax.get_xlabel()
+    plt.close(fig)
+
+
+def test_pressure_field_uses_a_perceptual_map_in_kpa():
+    plt = output.pyplot()
+    x, y = np.meshgrid([0.025, 0.075], np.linspace(0.05, 0.95, 10))
+    snaps = [(0.1, x.ravel(), y.ravel(), 1e4 * (1 - y.ravel())), (0.5, x.ravel(), y.ravel(),
+                                                                   5e3 * (1 - y.ravel()))]
+    fig = figures.pressure_field(plt, snaps, 1e4, "field", width=0.1)
+    axes = [a for a in fig.axes if a.get_label() != "<colorbar>"]
+    assert len(axes) == 2
+    for ax, (tv, _, yy, pp) in zip(axes, snaps):
+        sc = ax.collections[0]
+        assert sc.get_cmap().name == "viridis"
+        assert sc.get_clim() == (0, 10.0)                        # 0 to q, in kPa
+        assert np.allclose(sc.get_array(), pp / 1e3)
+        assert ax.get_xlabel() == "x (m)" and ax.get_title() == f"T_v = {tv:g}"
+    assert "(m)" in axes[0].get_ylabel()
+    colorbar = [a for a in fig.axes if a not in axes][0]
+    assert colorbar.get_ylabel() == "excess pore pressure (kPa)"
+    plt.close(fig)
