@@ -290,7 +290,8 @@ def test_restart_keeps_scaling_and_drag(cli, tmp_path):
 @pytest.mark.parametrize("option,value", [
     ("-mpm_mass_scaling", "0"), ("-mpm_mass_scaling", "-2"), ("-mpm_mass_scaling", "big"),
     ("-mpm_mass_scaling", "nan"), ("-mpm_mass_scaling", "inf"), ("-mpm_drag", "semi"),
-    ("-mpm_damping", "0"),        # auto needs damping
+    ("-mpm_fast_damping", "0"),   # auto needs damping (local damping is off by default)
+    ("-mpm_fast_damping", "-1"), ("-mpm_bulk_viscosity", "2"),
 ])
 def test_bad_values(cli, tmp_path, option, value):
     out = tmp_path / "never"
@@ -298,5 +299,6 @@ def test_bad_values(cli, tmp_path, option, value):
     assert res.returncode == 2, res.stderr
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("solver: error: ")
-    assert (option if option != "-mpm_damping" else "-mpm_mass_scaling auto") in lines[0]
+    auto = option == "-mpm_fast_damping" and value == "0"
+    assert (option if not auto else "-mpm_mass_scaling auto") in lines[0]
     assert not out.exists()
