@@ -56,7 +56,7 @@ PI_MIN = 300.0      # measured: Pi_S below which a residual oscillation exceeds 
 def decay(p) -> tuple:
     """(r, T_d / T_w): amplitude factor per damped period of the fundamental mode, and that
     period over the undamped one, under local and fast-part damping (module docstring)."""
-    alpha, zeta = p.damping, getattr(p, "fast_damping", 0.0)
+    alpha, zeta = p.damping, p.fast_damping
     r, stretch = 1.0, 1.0
     if zeta > 0:
         # In units of w1: (l^2 + 1)(l + 1) + 2 zeta l^2 = l^3 + (1 + 2 zeta) l^2 + l + 1.

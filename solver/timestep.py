@@ -99,7 +99,7 @@ def discrete_limit(comm, p, scheme) -> tuple:
         if scheme["drag"] == "explicit":
             guess = min(2 / drag_rate(p, S), guess)
         limit = _bisect_limit(_linear_parts(grid, points, p, scheme), p.flip, guess)
-        limit *= viscous_factor(getattr(p, "bulk_viscosity", 0.0))
+        limit *= viscous_factor(p.bulk_viscosity)
         points.destroy()
     return comm.tompi4py().bcast(limit, root=0), cells
 
