@@ -6,25 +6,30 @@ points (with the pressure projection) and the migration test. The formulas are t
 the twophase module docstring and docs/method.md; ``tests/test_step_reference.py`` holds
 a plain NumPy reference they must match.
 
-Data, all flat arrays kept between steps (no per-step temporaries):
+Arguments, all kept between steps (no per-step temporaries):
+- ``off`` (tuple of ints): ghosted-local offsets of the cell's nodes (node a of the cell
+  whose node (0, 0) is ``base`` is ``base + off[a]``). Its length (4, 8, 9) is part of
+  the kernels' type, so each cell type gets its own machine code, with the loops over
+  the nodes unrolled and the shape functions held in registers (tuples) rather than in a
+  scratch array: about twice as fast as one generic code (measured);
 - ``P`` (int64): ``P[PN]`` the number of local points, then the addresses of the swarm's
-  point fields (slots PX ... PVSLOW; 0 for a field the scheme does not use). The fields are
-  viewed in place through ``_field1``/``_field2``: one array argument instead of ten, since
-  numba unboxes every array argument on every call (about 0.15 us each, measured), which
-  for the 40 points of the M1 scenes would cost more than the arithmetic;
+  point fields (slots PX ... PVSLOW; 0 for a field the scheme does not use), viewed in
+  place through ``_field1``/``_field2``: one array argument instead of ten, since numba
+  unboxes every array argument on every call (about 0.15 us each, measured), which for
+  the 40 points of the M1 scenes would cost more than the arithmetic;
 - ``I`` (int64) and ``R`` (float64): the scheme's integers and reals (slots I* and R*);
-- ``W`` (float64, ``NROW x MAXNEN``): one point's shape-function rows (scratch);
 - nodal arrays node-major, ``node * nfields + field``, as a DMDA Vec with ``dof =
   nfields`` stores them: the sums ``G`` (NF or NF + 1 fields), the accelerations and
   velocities ``O`` (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected
-  pressure increments (1 field) and ``B`` (5 per owned node: the load's nodal force, then 1
-  or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y)).
+  pressure increments (1 field) and ``B`` (NB = 5 per owned node: the load's nodal force,
+  then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y)).
 
 Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__`` (or
 ``NUMBA_CACHE_DIR``), so only the first run on a machine compiles; :func:`warm_up` compiles
-or loads every kernel at model set-up, inside the ``MPMCompile`` log event, so that the
-step's own events never include it. ``error_model='numpy'``: a division by zero gives inf
-or NaN as NumPy does (the run's blow-up check reports it) instead of raising.
+or loads the kernels of a cell type at model set-up, inside the ``MPMCompile`` log event,
+so that the step's own events never include it. ``error_model='numpy'``: a division by
+zero gives inf or NaN as NumPy does (the run's blow-up check reports it) instead of
+raising.
 """
 
 from __future__ import annotations
@@ -33,23 +38,21 @@ import time
 
 import numpy as np
 from numba import carray, njit, types
-from numba.extending import intrinsic
+from numba.core import cgutils
+from numba.extending import intrinsic, overload
 
 _jit = njit(cache=True, error_model="numpy")
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
 NB = 5        # static data per owned node: the load's force, free flags of v_s, v_l
-MAXNEN = 9    # nodes of a cell, at most (Q9)
 
 # P: point count, then field addresses.
 PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW = range(11)
 NP = 11
 
 # I: integers of the scheme and the grid.
-(IEL,       # cell type: Q4, Q8, Q9 below
- INEN,      # nodes per cell
- INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
+(INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
  IBLEND,    # 1: the liquid in the blended basis N_hat
  IHRZ,      # 1: HRZ lumping weights, 0: row sums (w = N)
  IPROJ,     # 1: pore-pressure increments projected through the nodes
@@ -57,14 +60,8 @@ NP = 11
  ICMX, ICMY,    # largest cell index per direction (cells - 1)
  ISTX, ISTY,    # ghosted-local node offset of one cell step in x and in y
  INOWN,         # owned nodes (the nodal update's range)
- ) = range(12)
-IOFF = 12                 # MAXNEN ghosted-local node offsets of the cell's nodes
-IOI = IOFF + MAXNEN       # MAXNEN lattice offsets i of the cell's nodes (0 .. p)
-IOJ = IOI + MAXNEN        # and j
-ICORN = IOJ + MAXNEN      # 4 local numbers of the corners, Q4 order (blended basis)
-NI = ICORN + 4
-Q4, Q8, Q9 = 0, 1, 2
-ELEMENTS = {"q4": Q4, "q8": Q8, "q9": Q9}
+ ) = range(10)
+NI = 10
 
 # R: reals (SI units).
 (RHX, RHY,     # cell size (m)
@@ -81,11 +78,6 @@ RD = 16                   # the plane-strain elasticity matrix D (Pa), 3 x 3 row
 RBOX = RD + 9             # migration box per direction: partitioned (1/0), h, lo, hi
 NR = RBOX + 8
 
-# W: rows of one point's shape functions: N, dN/dx, dN/dy (1, 1/m); N_hat and its
-# derivatives; HRZ weights; 1D values and natural derivatives in x, then in y.
-WN, WX, WY, WLN, WLX, WLY, WW, WVX, WDX, WVY, WDY = range(11)
-NROW = 11
-
 
 # -- point fields ---------------------------------------------------------------------------
 @intrinsic
@@ -97,6 +89,26 @@ def _pointer(typingctx, address):
         return builder.inttoptr(args[0], context.get_value_type(ptr))
 
     return ptr(types.int64), codegen
+
+
+@intrinsic
+def _on_stack(typingctx, tup):
+    """Pointer to a copy of a tuple of numbers (or of such tuples, all of one type) in the
+    calling kernel's stack frame: the loops over a cell's nodes index it like an array.
+    (Indexing the tuple itself with the loop variable compiles to a jump table per access,
+    as the compiler does not unroll these loops; a stack copy cannot alias the nodal arrays,
+    unlike a scratch array, so its values stay in registers.)"""
+    base = tup
+    while isinstance(base, types.BaseTuple):
+        base = base.dtype
+    ptr = types.CPointer(base)
+
+    def codegen(context, builder, signature, args):
+        slot = cgutils.alloca_once(builder, args[0].type)
+        builder.store(args[0], slot)
+        return builder.bitcast(slot, context.get_value_type(ptr))
+
+    return ptr(tup), codegen
 
 
 @_jit
@@ -125,139 +137,167 @@ def _cell(u, cmax):
 
 
 @_jit
-def _lagrange(t, k, W, v, d):
-    """1D Lagrange values (row v of W) and natural derivatives (row d) of k = 2 or 3 nodes
-    at the local coordinate t in [0, 1] (xi = 2 t - 1)."""
-    if k == 2:
-        W[v, 0], W[v, 1] = 1.0 - t, t
-        W[d, 0], W[d, 1] = -0.5, 0.5
-        return
-    s = t * 2.0 - 1.0
-    W[v, 0] = (s - 1.0) * s / 2
-    W[v, 1] = 1.0 - s * s
-    W[v, 2] = (s + 1.0) * s / 2
-    W[d, 0], W[d, 1], W[d, 2] = s - 0.5, s * -2.0, s + 0.5
-
-
-@_jit
-def _lagrange_rows(I, R, tx, ty, W):
-    """Rows N, dN/dx, dN/dy of the Lagrange cells (Q4, Q9): N_a = l_i(xi) l_j(eta) for
-    node a = j (p + 1) + i."""
-    k = 2 if I[IEL] == Q4 else 3
-    _lagrange(tx, k, W, WVX, WDX)
-    _lagrange(ty, k, W, WVY, WDY)
-    sx, sy = R[RSX], R[RSY]
-    for j in range(k):
-        for i in range(k):
-            a = j * k + i
-            W[WN, a] = W[WVY, j] * W[WVX, i]
-            W[WX, a] = W[WVY, j] * W[WDX, i] * sx
-            W[WY, a] = W[WDY, j] * W[WVX, i] * sy
-
-
-@_jit
-def _serendipity_rows(I, R, x, y, W):
-    """Rows of the Q8 cell at natural coordinates (x, y) (shapes._serendipity)."""
-    sx, sy = R[RSX], R[RSY]
-    for n in range(8):
-        a = I[IOI + n] - 1.0
-        b = I[IOJ + n] - 1.0
-        if a != 0.0 and b != 0.0:
-            N = 0.25 * (1 + a * x) * (1 + b * y) * (a * x + b * y - 1)
-            dx = 0.25 * a * (1 + b * y) * (2 * a * x + b * y)
-            dy = 0.25 * b * (1 + a * x) * (a * x + 2 * b * y)
-        elif a == 0.0:
-            N = 0.5 * (1 - x * x) * (1 + b * y)
-            dx = -x * (1 + b * y)
-            dy = 0.5 * b * (1 - x * x)
-        else:
-            N = 0.5 * (1 + a * x) * (1 - y * y)
-            dx = 0.5 * a * (1 - y * y)
-            dy = -y * (1 + a * x)
-        W[WN, n], W[WX, n], W[WY, n] = N, dx * sx, dy * sy
-
-
-@_jit
-def _blended_rows(I, R, x, y, W):
-    """Rows of N_hat = w N + (1 - w) N_Q4 (shapes.blended) at natural (x, y), from N."""
-    nen, w = I[INEN], R[RBLEND]
-    sx, sy = R[RSX], R[RSY]
-    for a in range(nen):
-        W[WLN, a] = w * W[WN, a]
-        W[WLX, a] = w * W[WX, a]
-        W[WLY, a] = w * W[WY, a]
-    for c in range(4):
-        i, j = c % 2, c // 2
-        vx = (1 - x) / 2 if i == 0 else (1 + x) / 2
-        vy = (1 - y) / 2 if j == 0 else (1 + y) / 2
-        dx = -0.5 if i == 0 else 0.5
-        dy = -0.5 if j == 0 else 0.5
-        a = I[ICORN + c]
-        W[WLN, a] += (1 - w) * (vx * vy)
-        W[WLX, a] += (1 - w) * (dx * vy) * sx
-        W[WLY, a] += (1 - w) * (vx * dy) * sy
-
-
-@_jit
-def _shape(I, R, x, y, W):
-    """Shape-function rows of the point at (x, y) (m) into W, and the ghosted-local number of
-    its cell's node at lattice offset (0, 0) relative to I[IOFF] (add I[IOFF + a] for node
-    a). Rows: N, dN/dx, dN/dy (1, 1/m), the liquid's N_hat and its derivatives when blended,
-    and the HRZ weights N^2 / sum N^2 when lumping so (row sums use N itself)."""
+def _locate(I, R, x, y):
+    """The point at (x, y) (m): the ghosted-local number of its cell's node (0, 0) and its
+    local coordinates (tx, ty) in [0, 1] (natural coordinates 2 t - 1)."""
     cx, tx = _cell(x / R[RHX], float(I[ICMX]))
     cy, ty = _cell(y / R[RHY], float(I[ICMY]))
-    el = I[IEL]
-    if el == Q8 or I[IBLEND]:
-        sx, sy = tx * 2.0 - 1.0, ty * 2.0 - 1.0
-        if el == Q8:
-            _serendipity_rows(I, R, sx, sy, W)
-        else:
-            _lagrange_rows(I, R, tx, ty, W)
-        if I[IBLEND]:
-            _blended_rows(I, R, sx, sy, W)
-    else:
-        _lagrange_rows(I, R, tx, ty, W)
-    if I[IHRZ]:
-        nen = I[INEN]
-        sq = 0.0
-        for a in range(nen):
-            sq += W[WN, a] * W[WN, a]
-        for a in range(nen):
-            W[WW, a] = W[WN, a] * W[WN, a] / sq
-    return int(cx) * I[ISTX] + int(cy) * I[ISTY]
+    return int(cx) * I[ISTX] + int(cy) * I[ISTY], tx, ty
 
 
 @_jit
-def _rows(I):
-    """Rows of W that hold the lumping weights w, the liquid's weights w_l and its test
-    functions N_l: w = N (row sums) or the HRZ row; N_l = w_l = N_hat when blended, else
-    N_l = N and w_l = w."""
-    rw = WW if I[IHRZ] else WN
+def _q4(R, tx, ty):
+    """N, dN/dx, dN/dy (1, 1/m) of the Q4 cell, nodes (0,0), (1,0), (0,1), (1,1)."""
+    vx0, vx1, vy0, vy1 = 1.0 - tx, tx, 1.0 - ty, ty
+    # dl/dxi = -+1/2, so dl/dx = -+1/h exactly (a power-of-2 scaling).
+    dx0, dx1, dy0, dy1 = -0.5 * R[RSX], 0.5 * R[RSX], -0.5 * R[RSY], 0.5 * R[RSY]
+    return ((vy0 * vx0, vy0 * vx1, vy1 * vx0, vy1 * vx1),
+            (vy0 * dx0, vy0 * dx1, vy1 * dx0, vy1 * dx1),
+            (dy0 * vx0, dy0 * vx1, dy1 * vx0, dy1 * vx1))
+
+
+@_jit
+def _quadratic(t):
+    """1D quadratic Lagrange values and natural derivatives at t in [0, 1] (xi = 2 t - 1)."""
+    s = t * 2.0 - 1.0
+    return ((s - 1.0) * s / 2, 1.0 - s * s, (s + 1.0) * s / 2,
+            s - 0.5, s * -2.0, s + 0.5)
+
+
+@_jit
+def _q9(R, tx, ty):
+    """N, dN/dx, dN/dy of the Q9 cell: N_a = l_i(xi) l_j(eta) for node a = 3 j + i."""
+    x0, x1, x2, d0, d1, d2 = _quadratic(tx)
+    y0, y1, y2, e0, e1, e2 = _quadratic(ty)
+    sx, sy = R[RSX], R[RSY]
+    return ((y0 * x0, y0 * x1, y0 * x2, y1 * x0, y1 * x1, y1 * x2, y2 * x0, y2 * x1, y2 * x2),
+            (y0 * d0 * sx, y0 * d1 * sx, y0 * d2 * sx, y1 * d0 * sx, y1 * d1 * sx,
+             y1 * d2 * sx, y2 * d0 * sx, y2 * d1 * sx, y2 * d2 * sx),
+            (e0 * x0 * sy, e0 * x1 * sy, e0 * x2 * sy, e1 * x0 * sy, e1 * x1 * sy,
+             e1 * x2 * sy, e2 * x0 * sy, e2 * x1 * sy, e2 * x2 * sy))
+
+
+@_jit
+def _corner(a, b, x, y):
+    """Q8 corner node at natural (a, b): N and its natural derivatives at (x, y)."""
+    return (0.25 * (1 + a * x) * (1 + b * y) * (a * x + b * y - 1),
+            0.25 * a * (1 + b * y) * (2 * a * x + b * y),
+            0.25 * b * (1 + a * x) * (a * x + 2 * b * y))
+
+
+@_jit
+def _mid_x(b, x, y):
+    """Q8 mid-side node (0, b) on the edge eta = b."""
+    return 0.5 * (1 - x * x) * (1 + b * y), -x * (1 + b * y), 0.5 * b * (1 - x * x)
+
+
+@_jit
+def _mid_y(a, x, y):
+    """Q8 mid-side node (a, 0) on the edge xi = a."""
+    return 0.5 * (1 + a * x) * (1 - y * y), 0.5 * a * (1 - y * y), -y * (1 + a * x)
+
+
+@_jit
+def _q8(R, tx, ty):
+    """N, dN/dx, dN/dy of the Q8 (serendipity) cell, nodes in the Q9 lattice order without
+    the centre (shapes.OFFSETS['q8'])."""
+    x, y = tx * 2.0 - 1.0, ty * 2.0 - 1.0
+    n0, n1, n2 = _corner(-1.0, -1.0, x, y), _mid_x(-1.0, x, y), _corner(1.0, -1.0, x, y)
+    n3, n4 = _mid_y(-1.0, x, y), _mid_y(1.0, x, y)
+    n5, n6, n7 = _corner(-1.0, 1.0, x, y), _mid_x(1.0, x, y), _corner(1.0, 1.0, x, y)
+    sx, sy = R[RSX], R[RSY]
+    return ((n0[0], n1[0], n2[0], n3[0], n4[0], n5[0], n6[0], n7[0]),
+            (n0[1] * sx, n1[1] * sx, n2[1] * sx, n3[1] * sx, n4[1] * sx, n5[1] * sx,
+             n6[1] * sx, n7[1] * sx),
+            (n0[2] * sy, n1[2] * sy, n2[2] * sy, n3[2] * sy, n4[2] * sy, n5[2] * sy,
+             n6[2] * sy, n7[2] * sy))
+
+
+def _rows(off, R, tx, ty):
+    """N, dN/dx, dN/dy of the cell type that len(off) names (4: Q4, 8: Q8, 9: Q9)."""
+
+
+@overload(_rows)
+def _rows_typed(off, R, tx, ty):
+    # Chosen when the caller is compiled: the cell type is part of off's type.
+    return {4: lambda off, R, tx, ty: _q4(R, tx, ty),
+            8: lambda off, R, tx, ty: _q8(R, tx, ty),
+            9: lambda off, R, tx, ty: _q9(R, tx, ty)}[len(off)]
+
+
+# Rows of a point's shape functions (the array S): N, dN/dx, dN/dy (1, 1/m), lumping
+# weights w; the liquid's N_l, dN_l/dx, dN_l/dy and weights w_l.
+SN, SX, SY, SW, SNL, SLX, SLY, SWL = range(8)
+NS = 8
+
+
+@_jit
+def _shape_rows(off, R, tx, ty):
+    """The rows S* at local coordinates (tx, ty) for row sums in the element's basis (w =
+    w_l = N_l = N); _liquid_and_weights changes them for HRZ and the blended basis."""
+    N, dx, dy = _rows(off, R, tx, ty)
+    return N, dx, dy, N, N, dx, dy, N
+
+
+@_jit
+def _liquid_and_weights(I, R, tx, ty, S):
+    """HRZ lumping weights N^2 / sum N^2 (assembly.lumping_weights) into row SW; the
+    blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner nodes)
+    and its derivatives into rows SNL, SLX, SLY and SWL, at local coordinates (tx, ty)."""
+    nen = S.shape[1]
+    if I[IHRZ]:
+        sq = 0.0
+        for a in range(nen):
+            sq += S[SN, a] * S[SN, a]
+        for a in range(nen):
+            S[SW, a] = S[SN, a] * S[SN, a] / sq
+        if not I[IBLEND]:
+            S[SWL] = S[SW]
     if I[IBLEND]:
-        return rw, WLN, WLN
-    return rw, rw, WN
+        w = R[RBLEND]
+        for r in range(3):
+            for a in range(nen):
+                S[SNL + r, a] = w * S[SN + r, a]
+        x, y = tx * 2.0 - 1.0, ty * 2.0 - 1.0
+        sx, sy = R[RSX], R[RSY]
+        for c in range(4):
+            i, j = c % 2, c // 2
+            vx = (1 - x) / 2 if i == 0 else (1 + x) / 2
+            vy = (1 - y) / 2 if j == 0 else (1 + y) / 2
+            ddx = -0.5 if i == 0 else 0.5
+            ddy = -0.5 if j == 0 else 0.5
+            # Corner c in the cell's numbering (shapes.corners): Q4 0-3, Q8 0 2 5 7, Q9
+            # 0 2 6 8.
+            a = c if nen == 4 else (c % 2) * 2 + (c // 2) * (nen - 3)
+            S[SNL, a] += (1 - w) * (vx * vy)
+            S[SLX, a] += (1 - w) * (ddx * vy) * sx
+            S[SLY, a] += (1 - w) * (vx * ddy) * sy
+        S[SWL] = S[SNL]
 
 
 # -- points to grid -------------------------------------------------------------------------
 @_jit
-def points_to_grid(P, I, R, W, G):
+def points_to_grid(off, P, I, R, G):
     """Nodal sums G (ghosted-local nodes x I[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
     + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), and
     w_l V (blended basis)."""
-    n, nf, nen = P[PN], I[INF], I[INEN]
+    n, nf, blend = P[PN], I[INF], I[IBLEND]
     G[:] = 0.0
     xr, V = _field2(P, PXREF, 2), _field1(P, PV)
     vs, vl, sig, pp = _field2(P, PVS, 2), _field2(P, PVL, 2), _field2(P, PSIG, 3), \
         _field1(P, PP)
     eta = R[RETA] > 0.0
     visc = _field1(P, PVISC)
-    rw, rwl, rnl = _rows(I)
-    blend = I[IBLEND]
-    rlx, rly = (WLX, WLY) if blend else (WX, WY)
     gm, gl = R[RGM], R[RGL]
+    nen = len(off)
+    offs = carray(_on_stack(off), nen)
+    other = I[IHRZ] or I[IBLEND]        # rows other than N's
     for k in range(n):
-        base = _shape(I, R, xr[k, 0], xr[k, 1], W)
+        base, tx, ty = _locate(I, R, xr[k, 0], xr[k, 1])
+        S = carray(_on_stack(_shape_rows(off, R, tx, ty)), (NS, nen))
+        if other:
+            _liquid_and_weights(I, R, tx, ty, S)
         Vk, p = V[k], pp[k]
         t00, t11 = p - sig[k, 0], p - sig[k, 1]
         if eta:
@@ -271,18 +311,17 @@ def points_to_grid(P, I, R, W, G):
         mlx, mly = vl[k, 0] * Vk, vl[k, 1] * Vk
         gmV, glV = Vk * gm, Vk * gl
         for a in range(nen):
-            o = (base + I[IOFF + a]) * nf
-            w, wl, Nl = W[rw, a], W[rwl, a], W[rnl, a]
-            dx, dy = W[WX, a], W[WY, a]
+            o = (base + offs[a]) * nf
+            w, wl, Nl = S[SW, a], S[SWL, a], S[SNL, a]
             G[o] += w * Vk
             G[o + 1] += w * msx
             G[o + 2] += w * msy
             G[o + 3] += wl * mlx
             G[o + 4] += wl * mly
-            G[o + 5] += dx * t00 + dy * t01
-            G[o + 6] += dx * t01 + dy * t11 + W[WN, a] * gmV
-            G[o + 7] += W[rlx, a] * pV
-            G[o + 8] += W[rly, a] * pV + Nl * glV
+            G[o + 5] += S[SX, a] * t00 + S[SY, a] * t01
+            G[o + 6] += S[SX, a] * t01 + S[SY, a] * t11 + S[SN, a] * gmV
+            G[o + 7] += S[SLX, a] * pV
+            G[o + 8] += S[SLY, a] * pV + Nl * glV
             if blend:
                 G[o + 9] += Nl * Vk
 
@@ -369,19 +408,16 @@ def nodal_update(I, R, B, G, O, dt, load_factor, damping):
 
 # -- grid to points -------------------------------------------------------------------------
 @_jit
-def grid_to_points(P, I, R, W, O, pacc, dt, flip):
+def grid_to_points(off, P, I, R, O, pacc, dt, flip):
     """Grid to points from O (ghosted-local nodes x NG): point velocities (FLIP, or the
     FLIP/PIC blend ``flip``), effective stress (D d eps), pore pressure (eqs. 8-9; with the
     projection its increments' nodal sums w V dp go to ``pacc`` instead), positions x +=
     dt v_s^{k+1}, the viscous stress eta div v_s, fast-part damping and the volume ratio J."""
-    n, nen = P[PN], I[INEN]
+    n, blend, project = P[PN], I[IBLEND], I[IPROJ]
     x, xr, V = _field2(P, PX, 2), _field2(P, PXREF, 2), _field1(P, PV)
     vs, vl, sig, pp = _field2(P, PVS, 2), _field2(P, PVL, 2), _field2(P, PSIG, 3), \
         _field1(P, PP)
     J, visc, vslow = _field1(P, PJ), _field1(P, PVISC), _field2(P, PVSLOW, 2)
-    rw, rwl, rnl = _rows(I)
-    blend, project = I[IBLEND], I[IPROJ]
-    rlx, rly = (WLX, WLY) if blend else (WX, WY)
     D = R[RD:RD + 9]
     n_ = R[RN]
     cdiv = 1.0 if blend else 1.0 - n_      # div v_s + n div(v_l - v_s), or (1 - n) div v_s
@@ -391,15 +427,21 @@ def grid_to_points(P, I, R, W, O, pacc, dt, flip):
     pic = flip != 1.0
     if project:
         pacc[:] = 0.0
+    nen = len(off)
+    offs = carray(_on_stack(off), nen)
+    other = I[IHRZ] or I[IBLEND]        # rows other than N's
     for k in range(n):
-        base = _shape(I, R, xr[k, 0], xr[k, 1], W)
+        base, tx, ty = _locate(I, R, xr[k, 0], xr[k, 1])
+        S = carray(_on_stack(_shape_rows(off, R, tx, ty)), (NS, nen))
+        if other:
+            _liquid_and_weights(I, R, tx, ty, S)
         a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
         l00 = l01 = l10 = l11 = 0.0
         dvl = dvs = 0.0
         for a in range(nen):
-            o = (base + I[IOFF + a]) * NG
-            N, Nl = W[WN, a], W[rnl, a]
-            dx, dy, dlx, dly = W[WX, a], W[WY, a], W[rlx, a], W[rly, a]
+            o = (base + offs[a]) * NG
+            N, Nl, dx, dy, dlx, dly = (S[SN, a], S[SNL, a], S[SX, a], S[SY, a], S[SLX, a],
+                                       S[SLY, a])
             h4, h5, h6, h7 = O[o + 4], O[o + 5], O[o + 6], O[o + 7]
             a0 += N * O[o]
             a1 += N * O[o + 1]
@@ -439,7 +481,7 @@ def grid_to_points(P, I, R, W, O, pacc, dt, flip):
         if project:
             wV = V[k]
             for a in range(nen):
-                pacc[base + I[IOFF + a]] += W[rw, a] * wV * dp
+                pacc[base + offs[a]] += S[SW, a] * wV * dp
         else:
             pp[k] -= dp                          # eqs. 8-9
         x[k, 0] += a4 * dt
@@ -474,25 +516,27 @@ def project_nodes(G, nf, pn):
 
 
 @_jit
-def project_back(P, I, R, W, pn):
+def project_back(off, P, I, R, pn):
     """Pore pressures p -= sum N pn at the points' reference positions (x0, or the new x)."""
-    n, nen = P[PN], I[INEN]
     xr, pp = _field2(P, PXREF, 2), _field1(P, PP)
-    for k in range(n):
-        base = _shape(I, R, xr[k, 0], xr[k, 1], W)
+    nen = len(off)
+    offs = carray(_on_stack(off), nen)
+    for k in range(P[PN]):
+        base, tx, ty = _locate(I, R, xr[k, 0], xr[k, 1])
+        N = carray(_on_stack(_rows(off, R, tx, ty)[0]), nen)
         s = 0.0
         for a in range(nen):
-            s += W[WN, a] * pn[base + I[IOFF + a]]
+            s += N[a] * pn[base + offs[a]]
         pp[k] -= s
 
 
 @_jit
-def grid_to_points_serial(P, I, R, W, G, O, pn, dt, flip):
+def grid_to_points_serial(off, P, I, R, G, O, pn, dt, flip):
     """One rank: grid to points, then the projection (ghosted-local = owned nodes)."""
-    grid_to_points(P, I, R, W, O, pn, dt, flip)
+    grid_to_points(off, P, I, R, O, pn, dt, flip)
     if I[IPROJ]:
         project_nodes(G, I[INF], pn)
-        project_back(P, I, R, W, pn)
+        project_back(off, P, I, R, pn)
 
 
 # -- migration ------------------------------------------------------------------------------
@@ -519,30 +563,32 @@ KERNELS = (points_to_grid, nodal_update, grid_to_points, project_nodes, project_
 _warm = {}
 
 
-def warm_up() -> dict:
+def warm_up(nen: int) -> dict:
     """Compile (first run) or load from the cache every kernel for the argument types the
-    step uses, once per process, on empty data (no points, no nodes). Returns the seconds
-    this took and how many kernels were compiled and loaded from the cache in this process."""
-    if _warm:
-        return _warm
+    step of a cell with ``nen`` nodes uses, once per process and cell type, on empty data
+    (no points, no nodes). Returns the seconds this took and how many kernel variants were
+    compiled and loaded from the disk cache in this process so far."""
+    if nen in _warm:
+        return _warm[nen]
     t = time.perf_counter()
-    P, I = np.zeros(NP, dtype=np.int64), np.zeros(NI, dtype=np.int64)
-    R, W = np.zeros(NR), np.zeros((NROW, MAXNEN))
+    off = (0,) * nen
+    P, I, R = np.zeros(NP, dtype=np.int64), np.zeros(NI, dtype=np.int64), np.zeros(NR)
     G, O, pn, B = np.zeros(NF), np.zeros(NG), np.zeros(0), np.zeros(NB)
-    points_to_grid(P, I, R, W, G)
+    points_to_grid(off, P, I, R, G)
     nodal_update(I, R, B, G, O, 0.0, 0.0, 0.0)
-    grid_to_points(P, I, R, W, O, pn, 0.0, 1.0)
+    grid_to_points(off, P, I, R, O, pn, 0.0, 1.0)
     project_nodes(G, NF, pn)
-    project_back(P, I, R, W, pn)
-    grid_to_points_serial(P, I, R, W, G, O, pn, 0.0, 1.0)
+    project_back(off, P, I, R, pn)
+    grid_to_points_serial(off, P, I, R, G, O, pn, 0.0, 1.0)
     leaving(P, R)
-    _warm.update(seconds=time.perf_counter() - t, **compile_counts())
-    return _warm
+    _warm[nen] = dict(seconds=time.perf_counter() - t, **compile_counts())
+    return _warm[nen]
 
 
 def compile_counts() -> dict:
-    """Kernels compiled in this process and loaded from the disk cache, and the number of
-    type signatures each kernel has (1: the step never compiled a second variant)."""
+    """Kernel variants compiled in this process and loaded from the disk cache, and the
+    type signatures of each kernel (one per cell type used: the step never compiled a
+    variant of its own)."""
     return {"compiled": sum(sum(k.stats.cache_misses.values()) for k in KERNELS),
             "loaded": sum(sum(k.stats.cache_hits.values()) for k in KERNELS),
             "signatures": {k.__name__: len(k.signatures) for k in KERNELS}}

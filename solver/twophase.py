@@ -90,13 +90,14 @@ def _event(name: str):
     return ev
 
 
-def compile_kernels() -> dict:
-    """Compile or load the step's kernels (once per process), timed by the MPMCompile event;
-    returns :func:`solver.kernels.warm_up`'s record (seconds, compiled, loaded)."""
+def compile_kernels(nen: int) -> dict:
+    """Compile or load the step's kernels for cells of nen nodes (once per process), timed
+    by the MPMCompile event; returns :func:`solver.kernels.warm_up`'s record (seconds,
+    compiled, loaded)."""
     ev = _event("MPMCompile")
     ev.begin()
     try:
-        return kernels.warm_up()
+        return kernels.warm_up(nen)
     finally:
         ev.end()
 
@@ -144,14 +145,18 @@ class TwoPhase:
         self.fixed_s = grid.constrained_mask(bcs).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
         self.traction = self._traction(p.load)
-        self._I, self._R = self._integers(scheme), self._reals()
+        self._I, self._R = self._integers(), self._reals()
         self._B = self._node_data()
-        self._W = np.zeros((kernels.NROW, kernels.MAXNEN))    # one point's shape functions
+        # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
+        # length selects the kernels' machine code for the cell type.
+        off = grid.offsets
+        self._off = tuple(int(o) for o in (off[:, 1] - grid.gys) * grid.gxm
+                          + (off[:, 0] - grid.gxs))
         self._nodal_arrays()
         self._P = np.zeros(kernels.NP, dtype=np.int64)       # point count, field addresses
         self._gen = None
         self._flags = None
-        self.compiled = compile_kernels()
+        self.compiled = compile_kernels(len(self._off))
         self.ev_p2g = _event("MPMPointsToGrid")
         self.ev_nodal = _event("MPMNodalUpdate")
         self.ev_g2p = _event("MPMGridToPoints")
@@ -183,22 +188,17 @@ class TwoPhase:
             force[-1] = -q * top[g.xs:g.xe]
         return force.ravel()
 
-    def _integers(self, scheme):
-        """The kernels' integer data (kernels.I*): cell type, scheme flags, grid numbering."""
+    def _integers(self):
+        """The kernels' integer data (kernels.I*): scheme flags and grid numbering."""
         g, K = self.grid, kernels
-        off = g.offsets
-        nen = len(off)
         I = np.zeros(K.NI, dtype=np.int64)
-        I[K.IEL], I[K.INEN], I[K.INF] = K.ELEMENTS[g.element], nen, self.nf
+        I[K.INF] = self.nf
         I[K.IBLEND], I[K.IHRZ], I[K.IPROJ], I[K.IIMPL] = (self.blend, self.hrz, self.project,
                                                           self.implicit)
         I[K.ICMX], I[K.ICMY] = g.cells[0] - 1, g.cells[1] - 1
-        # Ghosted-local node of local node a of cell (cx, cy): p cx + p gxm cy + offset[a].
+        # Ghosted-local node of local node a of cell (cx, cy): p cx + p gxm cy + off[a].
         I[K.ISTX], I[K.ISTY] = g.p, g.p * g.gxm
         I[K.INOWN] = self.nown
-        I[K.IOFF:K.IOFF + nen] = (off[:, 1] - g.gys) * g.gxm + (off[:, 0] - g.gxs)
-        I[K.IOI:K.IOI + nen], I[K.IOJ:K.IOJ + nen] = off[:, 0], off[:, 1]
-        I[K.ICORN:K.ICORN + 4] = shapes.corners(g.element)
         return I
 
     def _reals(self):
@@ -300,9 +300,9 @@ class TwoPhase:
         # Floats: a kernel called with an int would compile a variant inside the step.
         dt, load_factor, damping, flip = float(dt), float(load_factor), float(damping), \
             float(flip)
-        P, I, R, W = self._P, self._I, self._R, self._W
+        off, P, I, R = self._off, self._P, self._I, self._R
         self.ev_p2g.begin()
-        kernels.points_to_grid(P, I, R, W, self._Gl)
+        kernels.points_to_grid(off, P, I, R, self._Gl)
         if not self.serial:
             self.glob_f.zeroEntries()
             self.da_f.localToGlobal(self.loc_f, self.glob_f, addv=PETSc.InsertMode.ADD_VALUES)
@@ -316,9 +316,9 @@ class TwoPhase:
 
         self.ev_g2p.begin()
         if self.serial:
-            kernels.grid_to_points_serial(P, I, R, W, self._G, self._O, self._pn, dt, flip)
+            kernels.grid_to_points_serial(off, P, I, R, self._G, self._O, self._pn, dt, flip)
         else:
-            kernels.grid_to_points(P, I, R, W, self._O, self._pn, dt, flip)
+            kernels.grid_to_points(off, P, I, R, self._O, self._pn, dt, flip)
             if self.project:
                 self._project()
         self.ev_g2p.end()
@@ -330,7 +330,7 @@ class TwoPhase:
         self.da_p.localToGlobal(self.loc_p, self.glob_p, addv=PETSc.InsertMode.ADD_VALUES)
         kernels.project_nodes(self._G, self.nf, self._pg)
         self.da_p.globalToLocal(self.glob_p, self.loc_p)
-        kernels.project_back(self._P, self._I, self._R, self._W, self._pn)
+        kernels.project_back(self._off, self._P, self._I, self._R, self._pn)
 
     def check(self, step: int, t: float, scale: float):
         """Stop (NumericalError, on every rank) on non-finite values, unbounded pore pressure,
