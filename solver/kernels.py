@@ -111,6 +111,17 @@ def _on_stack(typingctx, tup):
     return ptr(tup), codegen
 
 
+@intrinsic
+def _put(typingctx, S, tup):
+    """Store a tuple of float tuples at the start of the C-contiguous array S (one store)."""
+    def codegen(context, builder, signature, args):
+        arr = context.make_array(signature.args[0])(context, builder, args[0])
+        builder.store(args[1], builder.bitcast(arr.data, args[1].type.as_pointer()))
+        return context.get_dummy_value()
+
+    return types.none(S, tup), codegen
+
+
 @_jit
 def _field1(P, slot):
     """The point field in ``slot`` as (n,)."""
@@ -225,25 +236,46 @@ def _rows_typed(off, R, tx, ty):
             9: lambda off, R, tx, ty: _q9(R, tx, ty)}[len(off)]
 
 
-# Rows of a point's shape functions (the array S): N, dN/dx, dN/dy (1, 1/m), lumping
-# weights w; the liquid's N_l, dN_l/dx, dN_l/dy and weights w_l.
-SN, SX, SY, SW, SNL, SLX, SLY, SWL = range(8)
-NS = 8
+# Rows of a point's shape functions (the array S, on the kernel's stack): N, dN/dx, dN/dy
+# (1, 1/m); the HRZ lumping weights; the blended basis N_hat, dN_hat/dx, dN_hat/dy.
+SN, SX, SY, SW, SNL, SLX, SLY = range(7)
+NS = 7
 
 
 @_jit
-def _shape_rows(off, R, tx, ty):
-    """The rows S* at local coordinates (tx, ty) for row sums in the element's basis (w =
-    w_l = N_l = N); _liquid_and_weights changes them for HRZ and the blended basis."""
-    N, dx, dy = _rows(off, R, tx, ty)
-    return N, dx, dy, N, N, dx, dy, N
+def _scratch_rows(off, R):
+    """A tuple of NS rows of the cell type's length (to allocate S on the stack)."""
+    r = _rows(off, R, 0.0, 0.0)
+    return r + r + (r[0],)
+
+
+@_jit
+def _row_numbers(I):
+    """Rows of S that hold the lumping weights w, the liquid's N_l, dN_l/dx, dN_l/dy and its
+    weights w_l: N's rows, unless HRZ (w) or the blended basis (N_l, its derivatives and
+    w_l = N_hat) replace them."""
+    rw = SW if I[IHRZ] else SN
+    if I[IBLEND]:
+        return rw, SNL, SLX, SLY, SNL
+    return rw, SN, SX, SY, rw
+
+
+@_jit
+def _shape(off, I, R, x, y, S):
+    """Shape functions of the point at (x, y) (m) into the rows of S (_row_numbers), and
+    the ghosted-local number of its cell's node (0, 0)."""
+    base, tx, ty = _locate(I, R, x, y)
+    _put(S, _rows(off, R, tx, ty))
+    if I[IHRZ] or I[IBLEND]:
+        _liquid_and_weights(I, R, tx, ty, S)
+    return base
 
 
 @_jit
 def _liquid_and_weights(I, R, tx, ty, S):
     """HRZ lumping weights N^2 / sum N^2 (assembly.lumping_weights) into row SW; the
     blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner nodes)
-    and its derivatives into rows SNL, SLX, SLY and SWL, at local coordinates (tx, ty)."""
+    and its derivatives into rows SNL, SLX, SLY, at local coordinates (tx, ty)."""
     nen = S.shape[1]
     if I[IHRZ]:
         sq = 0.0
@@ -251,8 +283,6 @@ def _liquid_and_weights(I, R, tx, ty, S):
             sq += S[SN, a] * S[SN, a]
         for a in range(nen):
             S[SW, a] = S[SN, a] * S[SN, a] / sq
-        if not I[IBLEND]:
-            S[SWL] = S[SW]
     if I[IBLEND]:
         w = R[RBLEND]
         for r in range(3):
@@ -272,7 +302,6 @@ def _liquid_and_weights(I, R, tx, ty, S):
             S[SNL, a] += (1 - w) * (vx * vy)
             S[SLX, a] += (1 - w) * (ddx * vy) * sx
             S[SLY, a] += (1 - w) * (vx * ddy) * sy
-        S[SWL] = S[SNL]
 
 
 # -- points to grid -------------------------------------------------------------------------
@@ -284,6 +313,7 @@ def points_to_grid(off, P, I, R, G):
     w_l V (blended basis)."""
     n, nf, blend = P[PN], I[INF], I[IBLEND]
     G[:] = 0.0
+    Gn = G.reshape((G.shape[0] // nf, nf))      # by node (one index check per node)
     xr, V = _field2(P, PXREF, 2), _field1(P, PV)
     vs, vl, sig, pp = _field2(P, PVS, 2), _field2(P, PVL, 2), _field2(P, PSIG, 3), \
         _field1(P, PP)
@@ -292,12 +322,10 @@ def points_to_grid(off, P, I, R, G):
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
     offs = carray(_on_stack(off), nen)
-    other = I[IHRZ] or I[IBLEND]        # rows other than N's
+    S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
+    rw, rnl, rlx, rly, rwl = _row_numbers(I)
     for k in range(n):
-        base, tx, ty = _locate(I, R, xr[k, 0], xr[k, 1])
-        S = carray(_on_stack(_shape_rows(off, R, tx, ty)), (NS, nen))
-        if other:
-            _liquid_and_weights(I, R, tx, ty, S)
+        base = _shape(off, I, R, xr[k, 0], xr[k, 1], S)
         Vk, p = V[k], pp[k]
         t00, t11 = p - sig[k, 0], p - sig[k, 1]
         if eta:
@@ -311,19 +339,19 @@ def points_to_grid(off, P, I, R, G):
         mlx, mly = vl[k, 0] * Vk, vl[k, 1] * Vk
         gmV, glV = Vk * gm, Vk * gl
         for a in range(nen):
-            o = (base + offs[a]) * nf
-            w, wl, Nl = S[SW, a], S[SWL, a], S[SNL, a]
-            G[o] += w * Vk
-            G[o + 1] += w * msx
-            G[o + 2] += w * msy
-            G[o + 3] += wl * mlx
-            G[o + 4] += wl * mly
-            G[o + 5] += S[SX, a] * t00 + S[SY, a] * t01
-            G[o + 6] += S[SX, a] * t01 + S[SY, a] * t11 + S[SN, a] * gmV
-            G[o + 7] += S[SLX, a] * pV
-            G[o + 8] += S[SLY, a] * pV + Nl * glV
+            g = Gn[base + offs[a]]
+            w, wl, Nl = S[rw, a], S[rwl, a], S[rnl, a]
+            g[0] += w * Vk
+            g[1] += w * msx
+            g[2] += w * msy
+            g[3] += wl * mlx
+            g[4] += wl * mly
+            g[5] += S[SX, a] * t00 + S[SY, a] * t01
+            g[6] += S[SX, a] * t01 + S[SY, a] * t11 + S[SN, a] * gmV
+            g[7] += S[rlx, a] * pV
+            g[8] += S[rly, a] * pV + Nl * glV
             if blend:
-                G[o + 9] += Nl * Vk
+                g[9] += Nl * Vk
 
 
 # -- nodal update ---------------------------------------------------------------------------
@@ -425,28 +453,27 @@ def grid_to_points(off, P, I, R, O, pacc, dt, flip):
     eta, fast, slow = R[RETA], R[RFAST], R[RSLOW]
     fs, fl = R[RCS] / (R[RCS] + R[RCL]), R[RCL] / (R[RCS] + R[RCL])
     pic = flip != 1.0
+    On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
     if project:
         pacc[:] = 0.0
     nen = len(off)
     offs = carray(_on_stack(off), nen)
-    other = I[IHRZ] or I[IBLEND]        # rows other than N's
+    S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
+    rw, rnl, rlx, rly, rwl = _row_numbers(I)
     for k in range(n):
-        base, tx, ty = _locate(I, R, xr[k, 0], xr[k, 1])
-        S = carray(_on_stack(_shape_rows(off, R, tx, ty)), (NS, nen))
-        if other:
-            _liquid_and_weights(I, R, tx, ty, S)
+        base = _shape(off, I, R, xr[k, 0], xr[k, 1], S)
         a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
         l00 = l01 = l10 = l11 = 0.0
         dvl = dvs = 0.0
         for a in range(nen):
-            o = (base + offs[a]) * NG
-            N, Nl, dx, dy, dlx, dly = (S[SN, a], S[SNL, a], S[SX, a], S[SY, a], S[SLX, a],
-                                       S[SLY, a])
-            h4, h5, h6, h7 = O[o + 4], O[o + 5], O[o + 6], O[o + 7]
-            a0 += N * O[o]
-            a1 += N * O[o + 1]
-            a2 += Nl * O[o + 2]
-            a3 += Nl * O[o + 3]
+            h = On[base + offs[a]]
+            N, Nl, dx, dy, dlx, dly = (S[SN, a], S[rnl, a], S[SX, a], S[SY, a], S[rlx, a],
+                                       S[rly, a])
+            h4, h5, h6, h7 = h[4], h[5], h[6], h[7]
+            a0 += N * h[0]
+            a1 += N * h[1]
+            a2 += Nl * h[2]
+            a3 += Nl * h[3]
             a4 += N * h4
             a5 += N * h5
             if pic:
@@ -481,7 +508,7 @@ def grid_to_points(off, P, I, R, O, pacc, dt, flip):
         if project:
             wV = V[k]
             for a in range(nen):
-                pacc[base + offs[a]] += S[SW, a] * wV * dp
+                pacc[base + offs[a]] += S[rw, a] * wV * dp
         else:
             pp[k] -= dp                          # eqs. 8-9
         x[k, 0] += a4 * dt
@@ -573,6 +600,7 @@ def warm_up(nen: int) -> dict:
     t = time.perf_counter()
     off = (0,) * nen
     P, I, R = np.zeros(NP, dtype=np.int64), np.zeros(NI, dtype=np.int64), np.zeros(NR)
+    I[INF] = NF
     G, O, pn, B = np.zeros(NF), np.zeros(NG), np.zeros(0), np.zeros(NB)
     points_to_grid(off, P, I, R, G)
     nodal_update(I, R, B, G, O, 0.0, 0.0, 0.0)
