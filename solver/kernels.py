@@ -9,19 +9,21 @@ a plain NumPy reference they must match.
 Arguments, all kept between steps (no per-step temporaries):
 - ``off`` (tuple of ints): ghosted-local offsets of the cell's nodes (node a of the cell
   whose node (0, 0) is ``base`` is ``base + off[a]``). Its length (4, 8, 9) is part of
-  the kernels' type, so each cell type gets its own machine code, with the loops over
-  the nodes unrolled and the shape functions held in registers (tuples) rather than in a
-  scratch array: about twice as fast as one generic code (measured);
-- ``P`` (int64): ``P[PN]`` the number of local points, then the addresses of the swarm's
-  point fields (slots PX ... PVSLOW; 0 for a field the scheme does not use), viewed in
-  place through ``_field1``/``_field2``: one array argument instead of ten, since numba
-  unboxes every array argument on every call (about 0.15 us each, measured), which for
-  the 40 points of the M1 scenes would cost more than the arithmetic;
-- ``I`` (int64) and ``R`` (float64): the scheme's integers and reals (slots I* and R*);
-- nodal arrays node-major, ``node * nfields + field``, as a DMDA Vec with ``dof =
-  nfields`` stores them: the sums ``G`` (NF or NF + 1 fields), the accelerations and
-  velocities ``O`` (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected
-  pressure increments (1 field) and ``B`` (NB = 5 per owned node: the load's nodal force,
+  the kernels' type, so each cell type gets its own machine code, with the shape
+  functions computed into a small array on the kernel's stack: about twice as fast as one
+  generic code (measured);
+- ``C`` (int64), the context: the scheme's integers (slots I*), the number of local
+  points and the addresses of the swarm's point fields (slots P*, 0 for a field the
+  scheme does not use), and the addresses and lengths of the float64 arrays (slots A*):
+  the reals R (slots R*, SI units) and the nodal arrays. Numba unboxes every array
+  argument on every call (about 0.15 us each, measured): one array instead of twenty
+  keeps a step of the 40-point M1 scene at a few microseconds. The arrays are viewed in
+  place (``_points``, ``_array``); their owners (twophase.TwoPhase, the swarm, PETSc) keep
+  them alive and in place while the addresses are in use.
+- the nodal arrays are node-major, ``node * nfields + field``, as a DMDA Vec with ``dof =
+  nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
+  velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected pressure
+  increments (1 field) and the static data (NB = 5 per owned node: the load's nodal force,
   then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y)).
 
 Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__`` (or
@@ -41,17 +43,20 @@ from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
-_jit = njit(cache=True, error_model="numpy")
+_jit = njit(cache=True, error_model="numpy", fastmath={"contract"})
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
 NB = 5        # static data per owned node: the load's force, free flags of v_s, v_l
 
-# P: point count, then field addresses.
-PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW = range(11)
-NP = 11
-
-# I: integers of the scheme and the grid.
+# C: point count and point-field addresses ...
+(PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW) = range(11)
+# ... float64 arrays, each an (address, length) pair: the reals; the static node data; the
+# nodal sums of the ghosted-local and of the owned nodes; the results (accelerations and
+# velocities) of the owned and of the ghosted-local nodes; the projected pressure
+# increments of the ghosted-local and of the owned nodes (one rank: local = owned) ...
+AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(11, 27, 2)
+# ... and the scheme's integers.
 (INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
  IBLEND,    # 1: the liquid in the blended basis N_hat
  IHRZ,      # 1: HRZ lumping weights, 0: row sums (w = N)
@@ -60,8 +65,8 @@ NP = 11
  ICMX, ICMY,    # largest cell index per direction (cells - 1)
  ISTX, ISTY,    # ghosted-local node offset of one cell step in x and in y
  INOWN,         # owned nodes (the nodal update's range)
- ) = range(10)
-NI = 10
+ ) = range(27, 37)
+NC = 37
 
 # R: reals (SI units).
 (RHX, RHY,     # cell size (m)
@@ -82,7 +87,7 @@ NR = RBOX + 8
 # -- point fields ---------------------------------------------------------------------------
 @intrinsic
 def _pointer(typingctx, address):
-    """The float64 pointer at an integer address (the swarm field's storage)."""
+    """The float64 pointer at an integer address."""
     ptr = types.CPointer(types.float64)
 
     def codegen(context, builder, signature, args):
@@ -123,15 +128,21 @@ def _put(typingctx, S, tup):
 
 
 @_jit
-def _field1(P, slot):
-    """The point field in ``slot`` as (n,)."""
-    return carray(_pointer(P[slot]), P[PN])
+def _points(C, slot, bs):
+    """The point field in ``slot`` of C as (n, bs)."""
+    return carray(_pointer(C[slot]), (C[PN], bs))
 
 
 @_jit
-def _field2(P, slot, bs):
-    """The point field in ``slot`` as (n, bs)."""
-    return carray(_pointer(P[slot]), (P[PN], bs))
+def _points1(C, slot):
+    """The scalar point field in ``slot`` of C as (n,)."""
+    return carray(_pointer(C[slot]), C[PN])
+
+
+@_jit
+def _array(C, slot):
+    """The float64 array whose address and length are in ``slot`` of C."""
+    return carray(_pointer(C[slot]), C[slot + 1])
 
 
 # -- shape functions ------------------------------------------------------------------------
@@ -148,12 +159,12 @@ def _cell(u, cmax):
 
 
 @_jit
-def _locate(I, R, x, y):
+def _locate(C, R, x, y):
     """The point at (x, y) (m): the ghosted-local number of its cell's node (0, 0) and its
     local coordinates (tx, ty) in [0, 1] (natural coordinates 2 t - 1)."""
-    cx, tx = _cell(x / R[RHX], float(I[ICMX]))
-    cy, ty = _cell(y / R[RHY], float(I[ICMY]))
-    return int(cx) * I[ISTX] + int(cy) * I[ISTY], tx, ty
+    cx, tx = _cell(x / R[RHX], float(C[ICMX]))
+    cy, ty = _cell(y / R[RHY], float(C[ICMY]))
+    return int(cx) * C[ISTX] + int(cy) * C[ISTY], tx, ty
 
 
 @_jit
@@ -250,40 +261,41 @@ def _scratch_rows(off, R):
 
 
 @_jit
-def _row_numbers(I):
+def _row_numbers(hrz, blend):
     """Rows of S that hold the lumping weights w, the liquid's N_l, dN_l/dx, dN_l/dy and its
     weights w_l: N's rows, unless HRZ (w) or the blended basis (N_l, its derivatives and
-    w_l = N_hat) replace them."""
-    rw = SW if I[IHRZ] else SN
-    if I[IBLEND]:
-        return rw, SNL, SLX, SLY, SNL
-    return rw, SN, SX, SY, rw
+    w_l = N_hat) replace them. ``hrz``, ``blend``: None (off) or True (on), whose types
+    make the rows constants of the compiled variant."""
+    rw = SN if hrz is None else SW
+    if blend is None:
+        return rw, SN, SX, SY, rw
+    return rw, SNL, SLX, SLY, SNL
 
 
 @_jit
-def _shape(off, I, R, x, y, S):
+def _shape(off, C, R, x, y, S, hrz, blend):
     """Shape functions of the point at (x, y) (m) into the rows of S (_row_numbers), and
     the ghosted-local number of its cell's node (0, 0)."""
-    base, tx, ty = _locate(I, R, x, y)
+    base, tx, ty = _locate(C, R, x, y)
     _put(S, _rows(off, R, tx, ty))
-    if I[IHRZ] or I[IBLEND]:
-        _liquid_and_weights(I, R, tx, ty, S)
+    if hrz is not None or blend is not None:
+        _liquid_and_weights(C, R, tx, ty, S)
     return base
 
 
 @_jit
-def _liquid_and_weights(I, R, tx, ty, S):
+def _liquid_and_weights(C, R, tx, ty, S):
     """HRZ lumping weights N^2 / sum N^2 (assembly.lumping_weights) into row SW; the
     blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner nodes)
     and its derivatives into rows SNL, SLX, SLY, at local coordinates (tx, ty)."""
     nen = S.shape[1]
-    if I[IHRZ]:
+    if C[IHRZ]:
         sq = 0.0
         for a in range(nen):
             sq += S[SN, a] * S[SN, a]
         for a in range(nen):
             S[SW, a] = S[SN, a] * S[SN, a] / sq
-    if I[IBLEND]:
+    if C[IBLEND]:
         w = R[RBLEND]
         for r in range(3):
             for a in range(nen):
@@ -306,26 +318,27 @@ def _liquid_and_weights(I, R, tx, ty, S):
 
 # -- points to grid -------------------------------------------------------------------------
 @_jit
-def points_to_grid(off, P, I, R, G):
-    """Nodal sums G (ghosted-local nodes x I[INF] fields, overwritten) of the points: w V,
+def points_to_grid(off, C, hrz, blend):
+    """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
     + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), and
     w_l V (blended basis)."""
-    n, nf, blend = P[PN], I[INF], I[IBLEND]
+    n, nf = C[PN], C[INF]
+    R, G = _array(C, AR), _array(C, AGL)
     G[:] = 0.0
     Gn = G.reshape((G.shape[0] // nf, nf))      # by node (one index check per node)
-    xr, V = _field2(P, PXREF, 2), _field1(P, PV)
-    vs, vl, sig, pp = _field2(P, PVS, 2), _field2(P, PVL, 2), _field2(P, PSIG, 3), \
-        _field1(P, PP)
+    xr, V = _points(C, PXREF, 2), _points1(C, PV)
+    vs, vl, sig, pp = _points(C, PVS, 2), _points(C, PVL, 2), _points(C, PSIG, 3), \
+        _points1(C, PP)
     eta = R[RETA] > 0.0
-    visc = _field1(P, PVISC)
+    visc = _points1(C, PVISC)
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
-    rw, rnl, rlx, rly, rwl = _row_numbers(I)
+    rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
     for k in range(n):
-        base = _shape(off, I, R, xr[k, 0], xr[k, 1], S)
+        base = _shape(off, C, R, xr[k, 0], xr[k, 1], S, hrz, blend)
         Vk, p = V[k], pp[k]
         t00, t11 = p - sig[k, 0], p - sig[k, 1]
         if eta:
@@ -350,7 +363,7 @@ def points_to_grid(off, P, I, R, G):
             g[6] += S[SX, a] * t01 + S[SY, a] * t11 + S[SN, a] * gmV
             g[7] += S[rlx, a] * pV
             g[8] += S[rly, a] * pV + Nl * glV
-            if blend:
+            if blend is not None:
                 g[9] += Nl * Vk
 
 
@@ -366,43 +379,53 @@ def _sign(v):
 
 
 @_jit
-def _implicit(S, Sl, fm, fl, vsn, vln, fixed_s, fixed_l, R, dt):
+def _implicit_node(S, Sl, R, dt):
+    """The implicit drag's coefficients of a node, the same for both directions: M_l, Q,
+    1 / (M_s + M_l), M~_l / (M_s + M_l), 1 / (M~_l M_s / (M_s + M_l) + Q dt), and for a
+    held phase 1 / (M~_l + Q dt), 1 / M_s (0 where a mass or denominator is not positive:
+    that phase is then held); one set of divisions per node, none per direction."""
+    Ms, Ml, Mt, Q = R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl
+    Mm = Ms + Ml
+    inv_m = 1.0 / Mm if Mm > 0.0 else 0.0
+    den = Mt * Ms * inv_m + Q * dt
+    return (Ml, Q, inv_m, Mt * inv_m, 1.0 / den if den > 0.0 else 0.0,
+            1.0 / (Mt + Q * dt) if Sl > 0.0 else 0.0, 1.0 / Ms if S > 0.0 else 0.0)
+
+
+@_jit
+def _implicit(coef, fm, fl, vsn, vln, held_s, held_l):
     """Accelerations (a_s, a_l) of one DOF with backward Euler on the drag (the twophase
     module docstring): the relative acceleration b first, then a_s = (f_m - M_l b) / (M_s +
     M_l), a_l = a_s + b; a held phase (fixed, or without mass) has a = 0 and v = 0 and the
-    other phase's equation alone."""
-    Ms, Ml, Mt, Q = R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl
-    held_s = fixed_s or S <= 0.0
-    held_l = fixed_l or Sl <= 0.0
+    other phase's equation alone. ``coef``: _implicit_node's."""
+    Ml, Q, inv_m, mt_m, inv_den, inv_alone_l, inv_alone_s = coef
     vs = 0.0 if held_s else vsn
     vl = 0.0 if held_l else vln
-    Mm = Ms + Ml
-    inv_m = 1.0 / Mm if Mm > 0.0 else 0.0
     r = fl - Q * (vl - vs)                       # f_l - Q w
-    den = Mt * Ms * inv_m + Q * dt
-    b = (r - Mt * inv_m * fm) / den if den > 0.0 else 0.0
+    b = (r - mt_m * fm) * inv_den
     a_s = (fm - Ml * b) * inv_m
     a_l = a_s + b
     if held_l:
         a_l = 0.0
     elif held_s:
-        a_l = r / (Mt + Q * dt) if Sl > 0.0 else 0.0
+        a_l = r * inv_alone_l
     if held_s:
         a_s = 0.0
     elif held_l:
-        a_s = fm / Ms if S > 0.0 else 0.0
+        a_s = fm * inv_alone_s
     return a_s, a_l
 
 
 @_jit
-def nodal_update(I, R, B, G, O, dt, load_factor, damping):
+def nodal_update(C, dt, load_factor, damping):
     """Accelerations and velocities O (owned nodes x NG) from the sums G (owned nodes x
-    I[INF]): v = sum w V v / S, the load's force, local damping of the mixture's
+    C[INF]): v = sum w V v / S, the load's force, local damping of the mixture's
     unbalanced force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
     (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN)."""
-    nf, blend, implicit = I[INF], I[IBLEND], I[IIMPL]
+    nf, blend, implicit = C[INF], C[IBLEND], C[IIMPL]
+    R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
-    for k in range(I[INOWN]):
+    for k in range(C[INOWN]):
         g, o, b = k * nf, k * NG, k * NB
         S = G[g]
         invS = 1.0 / S if S > 0.0 else 0.0
@@ -411,6 +434,8 @@ def nodal_update(I, R, B, G, O, dt, load_factor, damping):
             # The liquid's masses and drag from its own weights: S_l = sum N_hat V.
             Sl = G[g + 9]
             invSl = 1.0 / Sl if Sl > 0.0 else 0.0
+        if implicit:
+            coef = _implicit_node(S, Sl, R, dt)
         for d in range(2):
             vsn, vln = G[g + 1 + d] * invS, G[g + 3 + d] * invSl
             fm, fl = G[g + 5 + d], G[g + 7 + d]
@@ -423,8 +448,8 @@ def nodal_update(I, R, B, G, O, dt, load_factor, damping):
                 fm -= abs(fm) * _sign(vmix) * damping
             free_s, free_l = B[b + 1 + d], B[b + 3 + d]
             if implicit:
-                a_s, a_l = _implicit(S, Sl, fm, fl, vsn, vln, free_s == 0.0, free_l == 0.0,
-                                     R, dt)
+                a_s, a_l = _implicit(coef, fm, fl, vsn, vln, free_s == 0.0 or S <= 0.0,
+                                     free_l == 0.0 or Sl <= 0.0)
             else:
                 a_l = (fl - (vln - vsn) * (cq * Sl)) * (invSl * (1.0 / ct))
                 a_s = (fm - a_l * (cl * Sl)) * (invS * (1.0 / cs))
@@ -436,19 +461,21 @@ def nodal_update(I, R, B, G, O, dt, load_factor, damping):
 
 # -- grid to points -------------------------------------------------------------------------
 @_jit
-def grid_to_points(off, P, I, R, O, pacc, dt, flip):
+def grid_to_points(off, C, hrz, blend, dt, flip):
     """Grid to points from O (ghosted-local nodes x NG): point velocities (FLIP, or the
     FLIP/PIC blend ``flip``), effective stress (D d eps), pore pressure (eqs. 8-9; with the
     projection its increments' nodal sums w V dp go to ``pacc`` instead), positions x +=
     dt v_s^{k+1}, the viscous stress eta div v_s, fast-part damping and the volume ratio J."""
-    n, blend, project = P[PN], I[IBLEND], I[IPROJ]
-    x, xr, V = _field2(P, PX, 2), _field2(P, PXREF, 2), _field1(P, PV)
-    vs, vl, sig, pp = _field2(P, PVS, 2), _field2(P, PVL, 2), _field2(P, PSIG, 3), \
-        _field1(P, PP)
-    J, visc, vslow = _field1(P, PJ), _field1(P, PVISC), _field2(P, PVSLOW, 2)
+    n, project = C[PN], C[IPROJ]
+    R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
+    x, xr, V = _points(C, PX, 2), _points(C, PXREF, 2), _points1(C, PV)
+    vs, vl, sig, pp = _points(C, PVS, 2), _points(C, PVL, 2), _points(C, PSIG, 3), \
+        _points1(C, PP)
+    J, visc, vslow = _points1(C, PJ), _points1(C, PVISC), _points(C, PVSLOW, 2)
     D = R[RD:RD + 9]
     n_ = R[RN]
-    cdiv = 1.0 if blend else 1.0 - n_      # div v_s + n div(v_l - v_s), or (1 - n) div v_s
+    blended = blend is not None
+    cdiv = 1.0 if blended else 1.0 - n_    # div v_s + n div(v_l - v_s), or (1 - n) div v_s
     kdp = dt * R[RKL] / n_
     eta, fast, slow = R[RETA], R[RFAST], R[RSLOW]
     fs, fl = R[RCS] / (R[RCS] + R[RCL]), R[RCL] / (R[RCS] + R[RCL])
@@ -459,9 +486,9 @@ def grid_to_points(off, P, I, R, O, pacc, dt, flip):
     nen = len(off)
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
-    rw, rnl, rlx, rly, rwl = _row_numbers(I)
+    rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
     for k in range(n):
-        base = _shape(off, I, R, xr[k, 0], xr[k, 1], S)
+        base = _shape(off, C, R, xr[k, 0], xr[k, 1], S, hrz, blend)
         a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
         l00 = l01 = l10 = l11 = 0.0
         dvl = dvs = 0.0
@@ -484,9 +511,9 @@ def grid_to_points(off, P, I, R, O, pacc, dt, flip):
             l10 += h5 * dx
             l11 += h5 * dy
             dvl += h6 * dlx + h7 * dly
-            if blend:
+            if blended:
                 dvs += h4 * dlx + h5 * dly
-        if blend:
+        if blended:
             # div (v_l - v_s) in the liquid's basis: the storage term is then div v_s +
             # n div(v_l - v_s), whose power the liquid force balances exactly.
             dvl -= dvs
@@ -534,22 +561,25 @@ def _damp_fast(vs, vl, vslow, k, fs, fl, slow, fast):
 
 
 @_jit
-def project_nodes(G, nf, pn):
-    """Lumped projection at the nodes: pn = sum w V dp / S (0 where S = sum w V <= 0), S the
-    first of the nf sums per node in G."""
+def project_nodes(C):
+    """Lumped projection at the owned nodes: pn = sum w V dp / S (0 where S = sum w V <=
+    0), S the first of the sums per node."""
+    G, pn, nf = _array(C, AGO), _array(C, APO), C[INF]
     for k in range(pn.shape[0]):
         S = G[k * nf]
         pn[k] *= 1.0 / S if S > 0.0 else 0.0
 
 
 @_jit
-def project_back(off, P, I, R, pn):
-    """Pore pressures p -= sum N pn at the points' reference positions (x0, or the new x)."""
-    xr, pp = _field2(P, PXREF, 2), _field1(P, PP)
+def project_back(off, C):
+    """Pore pressures p -= sum N pn (ghosted-local nodes) at the points' reference positions
+    (x0, or the new x)."""
+    R, pn = _array(C, AR), _array(C, APL)
+    xr, pp = _points(C, PXREF, 2), _points1(C, PP)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
-    for k in range(P[PN]):
-        base, tx, ty = _locate(I, R, xr[k, 0], xr[k, 1])
+    for k in range(C[PN]):
+        base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
         N = carray(_on_stack(_rows(off, R, tx, ty)[0]), nen)
         s = 0.0
         for a in range(nen):
@@ -558,26 +588,26 @@ def project_back(off, P, I, R, pn):
 
 
 @_jit
-def grid_to_points_serial(off, P, I, R, G, O, pn, dt, flip):
+def grid_to_points_serial(off, C, hrz, blend, dt, flip):
     """One rank: grid to points, then the projection (ghosted-local = owned nodes)."""
-    grid_to_points(off, P, I, R, O, pn, dt, flip)
-    if I[IPROJ]:
-        project_nodes(G, I[INF], pn)
-        project_back(off, P, I, R, pn)
+    grid_to_points(off, C, hrz, blend, dt, flip)
+    if C[IPROJ]:
+        project_nodes(C)
+        project_back(off, C)
 
 
 # -- migration ------------------------------------------------------------------------------
 @_jit
-def leaving(P, R):
+def leaving(C):
     """1 if some point's cell, floor(x / h) clipped as Grid.locate does, is outside this
     rank's box lo <= x / h < hi in a partitioned direction (NaN fails the test), else 0."""
-    xr = _field2(P, PXREF, 2)
+    R, xr = _array(C, AR), _points(C, PXREF, 2)
     for d in range(2):
         b = RBOX + 4 * d
         if R[b] == 0.0:
             continue
         h, lo, hi = R[b + 1], R[b + 2], R[b + 3]
-        for k in range(P[PN]):
+        for k in range(C[PN]):
             u = xr[k, d] / h
             if not (u >= lo and u < hi):
                 return 1
@@ -590,27 +620,46 @@ KERNELS = (points_to_grid, nodal_update, grid_to_points, project_nodes, project_
 _warm = {}
 
 
-def warm_up(nen: int) -> dict:
+def warm_up(nen: int, hrz, blend) -> dict:
     """Compile (first run) or load from the cache every kernel for the argument types the
-    step of a cell with ``nen`` nodes uses, once per process and cell type, on empty data
-    (no points, no nodes). Returns the seconds this took and how many kernel variants were
-    compiled and loaded from the disk cache in this process so far."""
-    if nen in _warm:
-        return _warm[nen]
+    step of a cell with ``nen`` nodes and lumping and liquid basis ``hrz`` and ``blend``
+    (None or True) uses, once per process and variant, on empty data (no points, no
+    nodes). Returns the seconds this took and how many kernel variants were compiled and
+    loaded from the disk cache in this process so far."""
+    key = (nen, hrz, blend)
+    if key in _warm:
+        return _warm[key]
     t = time.perf_counter()
     off = (0,) * nen
-    P, I, R = np.zeros(NP, dtype=np.int64), np.zeros(NI, dtype=np.int64), np.zeros(NR)
-    I[INF] = NF
-    G, O, pn, B = np.zeros(NF), np.zeros(NG), np.zeros(0), np.zeros(NB)
-    points_to_grid(off, P, I, R, G)
-    nodal_update(I, R, B, G, O, 0.0, 0.0, 0.0)
-    grid_to_points(off, P, I, R, O, pn, 0.0, 1.0)
-    project_nodes(G, NF, pn)
-    project_back(off, P, I, R, pn)
-    grid_to_points_serial(off, P, I, R, G, O, pn, 0.0, 1.0)
-    leaving(P, R)
-    _warm[nen] = dict(seconds=time.perf_counter() - t, **compile_counts())
-    return _warm[nen]
+    C = context({AR: np.zeros(NR), AB: np.zeros(NB), AGL: np.zeros(NF), AGO: np.zeros(NF),
+                 AOL: np.zeros(NG), AOO: np.zeros(NG)})
+    points_to_grid(off, C, hrz, blend)
+    nodal_update(C, 0.0, 0.0, 0.0)
+    grid_to_points(off, C, hrz, blend, 0.0, 1.0)
+    project_nodes(C)
+    project_back(off, C)
+    grid_to_points_serial(off, C, hrz, blend, 0.0, 1.0)
+    leaving(C)
+    _warm[key] = dict(seconds=time.perf_counter() - t, **compile_counts())
+    return _warm[key]
+
+
+def context(arrays: dict, C=None):
+    """The context C (a new one, or ``C`` updated) with the addresses and lengths of the
+    float64 arrays ``arrays`` ({slot: array}, contiguous; empty arrays where none given in
+    a new one); I* and P* slots are the caller's. The arrays must stay alive and in place
+    while C is in use."""
+    if C is None:
+        C = np.zeros(NC, dtype=np.int64)
+        C[INF] = NF
+        arrays = {**{slot: _EMPTY for slot in range(AR, APO + 1, 2)}, **arrays}
+    for slot, a in arrays.items():
+        assert a.dtype == np.float64 and a.flags.c_contiguous
+        C[slot], C[slot + 1] = a.ctypes.data, a.size
+    return C
+
+
+_EMPTY = np.zeros(0)
 
 
 def compile_counts() -> dict:

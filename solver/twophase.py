@@ -90,14 +90,14 @@ def _event(name: str):
     return ev
 
 
-def compile_kernels(nen: int) -> dict:
-    """Compile or load the step's kernels for cells of nen nodes (once per process), timed
-    by the MPMCompile event; returns :func:`solver.kernels.warm_up`'s record (seconds,
-    compiled, loaded)."""
+def compile_kernels(nen: int, hrz, blend) -> dict:
+    """Compile or load the step's kernels for cells of nen nodes, lumping and liquid basis
+    hrz and blend (None or True) once per process, timed by the MPMCompile event; returns
+    :func:`solver.kernels.warm_up`'s record (seconds, compiled, loaded)."""
     ev = _event("MPMCompile")
     ev.begin()
     try:
-        return kernels.warm_up(nen)
+        return kernels.warm_up(nen, hrz, blend)
     finally:
         ev.end()
 
@@ -145,18 +145,27 @@ class TwoPhase:
         self.fixed_s = grid.constrained_mask(bcs).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
         self.traction = self._traction(p.load)
-        self._I, self._R = self._integers(), self._reals()
-        self._B = self._node_data()
+        self._R, self._B = self._reals(), self._node_data()
         # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
         # length selects the kernels' machine code for the cell type.
         off = grid.offsets
         self._off = tuple(int(o) for o in (off[:, 1] - grid.gys) * grid.gxm
                           + (off[:, 0] - grid.gxs))
         self._nodal_arrays()
-        self._P = np.zeros(kernels.NP, dtype=np.int64)       # point count, field addresses
+        # The kernels' context: integers, and the addresses of the arrays they work on
+        # (kernels module docstring); the point fields' in _prepare.
+        K = kernels
+        self._C = K.context({K.AR: self._R, K.AB: self._B, K.AGL: self._Gl, K.AGO: self._G,
+                             K.AOO: self._Og, K.AOL: self._O, K.APL: self._pn,
+                             K.APO: self._pg})
+        self._integers(self._C)
         self._gen = None
         self._flags = None
-        self.compiled = compile_kernels(len(self._off))
+        # Lumping and liquid basis as the kernels' variant: None (row sums, the element's
+        # basis) or True (HRZ, blended), types that select compiled code.
+        self._hrz = True if self.hrz else None
+        self._blend = True if self.blend else None
+        self.compiled = compile_kernels(len(self._off), self._hrz, self._blend)
         self.ev_p2g = _event("MPMPointsToGrid")
         self.ev_nodal = _event("MPMNodalUpdate")
         self.ev_g2p = _event("MPMGridToPoints")
@@ -188,10 +197,10 @@ class TwoPhase:
             force[-1] = -q * top[g.xs:g.xe]
         return force.ravel()
 
-    def _integers(self):
-        """The kernels' integer data (kernels.I*): scheme flags and grid numbering."""
+    def _integers(self, I):
+        """The kernels' integers (kernels.I*, into the context I): scheme flags and grid
+        numbering."""
         g, K = self.grid, kernels
-        I = np.zeros(K.NI, dtype=np.int64)
         I[K.INF] = self.nf
         I[K.IBLEND], I[K.IHRZ], I[K.IPROJ], I[K.IIMPL] = (self.blend, self.hrz, self.project,
                                                           self.implicit)
@@ -199,7 +208,6 @@ class TwoPhase:
         # Ghosted-local node of local node a of cell (cx, cy): p cx + p gxm cy + off[a].
         I[K.ISTX], I[K.ISTY] = g.p, g.p * g.gxm
         I[K.INOWN] = self.nown
-        return I
 
     def _reals(self):
         """The kernels' real data (kernels.R*, SI units)."""
@@ -275,14 +283,15 @@ class TwoPhase:
         slots = {K.PX: self.x, K.PXREF: self.xref, K.PV: self.V, K.PVS: self.vs,
                  K.PVL: self.vl, K.PSIG: self.sig, K.PP: self.pp, K.PJ: self.J,
                  K.PVISC: self.visc, K.PVSLOW: self.vslow}
-        self._P[:] = 0
-        self._P[K.PN] = self.n_local
+        C = self._C
+        C[K.PN:K.PVSLOW + 1] = 0
+        C[K.PN] = self.n_local
         for slot, a in slots.items():
             if a is not None:
                 # The kernels view the storage as contiguous (n, bs) float64; the arrays are
                 # kept (above), and the swarm does not move them until the next generation.
                 assert a.dtype == np.float64 and a.flags.c_contiguous and len(a) == self.n_local
-                self._P[slot] = a.ctypes.data
+                C[slot] = a.ctypes.data
         self._gen = pts.generation
 
     @property
@@ -300,25 +309,25 @@ class TwoPhase:
         # Floats: a kernel called with an int would compile a variant inside the step.
         dt, load_factor, damping, flip = float(dt), float(load_factor), float(damping), \
             float(flip)
-        off, P, I, R = self._off, self._P, self._I, self._R
+        off, C = self._off, self._C
         self.ev_p2g.begin()
-        kernels.points_to_grid(off, P, I, R, self._Gl)
+        kernels.points_to_grid(off, C, self._hrz, self._blend)
         if not self.serial:
             self.glob_f.zeroEntries()
             self.da_f.localToGlobal(self.loc_f, self.glob_f, addv=PETSc.InsertMode.ADD_VALUES)
         self.ev_p2g.end()
 
         self.ev_nodal.begin()
-        kernels.nodal_update(I, R, self._B, self._G, self._Og, dt, load_factor, damping)
+        kernels.nodal_update(C, dt, load_factor, damping)
         if not self.serial:
             self.da_g.globalToLocal(self.glob_g, self.loc_g)
         self.ev_nodal.end()
 
         self.ev_g2p.begin()
         if self.serial:
-            kernels.grid_to_points_serial(off, P, I, R, self._G, self._O, self._pn, dt, flip)
+            kernels.grid_to_points_serial(off, C, self._hrz, self._blend, dt, flip)
         else:
-            kernels.grid_to_points(off, P, I, R, self._O, self._pn, dt, flip)
+            kernels.grid_to_points(off, C, self._hrz, self._blend, dt, flip)
             if self.project:
                 self._project()
         self.ev_g2p.end()
@@ -328,9 +337,9 @@ class TwoPhase:
         by S at the owned nodes, the result to the ghosts, and back to the points."""
         self.glob_p.zeroEntries()
         self.da_p.localToGlobal(self.loc_p, self.glob_p, addv=PETSc.InsertMode.ADD_VALUES)
-        kernels.project_nodes(self._G, self.nf, self._pg)
+        kernels.project_nodes(self._C)
         self.da_p.globalToLocal(self.glob_p, self.loc_p)
-        kernels.project_back(self._off, self._P, self._I, self._R, self._pn)
+        kernels.project_back(self._off, self._C)
 
     def check(self, step: int, t: float, scale: float):
         """Stop (NumericalError, on every rank) on non-finite values, unbounded pore pressure,
@@ -387,7 +396,7 @@ class TwoPhase:
         if self._flags is None or len(self._flags) != 1 + len(flags):
             self._flags = np.empty(1 + len(flags), dtype=np.int64)
             self._flags_out = np.empty(1 + len(flags), dtype=np.int64)
-        self._flags[0] = kernels.leaving(self._P, self._R)
+        self._flags[0] = kernels.leaving(self._C)
         self._flags[1:] = flags
         from mpi4py import MPI
 
