@@ -251,6 +251,8 @@ def _rows_typed(off, R, tx, ty):
 # (1, 1/m); the HRZ lumping weights; the blended basis N_hat, dN_hat/dx, dN_hat/dy.
 SN, SX, SY, SW, SNL, SLX, SLY = range(7)
 NS = 7
+NFMAX = NF + 1
+_ZROWS = ((0.0,) * NFMAX,) * NS      # zeros, to allocate NS x NFMAX on a kernel's stack
 
 
 @_jit
@@ -334,8 +336,13 @@ def points_to_grid(off, C, hrz, blend):
     visc = _points1(C, PVISC)
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
+    nfc = NF if blend is None else NF + 1
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
+    # The point's coefficients per row of S and nodal field: node a's field f gains
+    # sum_r S[r, a] K[r, f]. Zero except where a point writes them (the same places for
+    # every point of a variant): then the node loop is a few vector operations.
+    K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
     for k in range(n):
         base = _shape(off, C, R, xr[k, 0], xr[k, 1], S, hrz, blend)
@@ -344,27 +351,25 @@ def points_to_grid(off, C, hrz, blend):
         if eta:
             t00 -= visc[k]
             t11 -= visc[k]
-        t00 *= Vk
-        t11 *= Vk
+        K[rw, 0], K[rw, 1], K[rw, 2] = Vk, vs[k, 0] * Vk, vs[k, 1] * Vk
+        K[rwl, 3], K[rwl, 4] = vl[k, 0] * Vk, vl[k, 1] * Vk
         t01 = -(sig[k, 2] * Vk)
-        pV = p * Vk
-        msx, msy = vs[k, 0] * Vk, vs[k, 1] * Vk
-        mlx, mly = vl[k, 0] * Vk, vl[k, 1] * Vk
-        gmV, glV = Vk * gm, Vk * gl
+        K[SX, 5], K[SY, 5] = t00 * Vk, t01
+        K[SX, 6], K[SY, 6], K[SN, 6] = t01, t11 * Vk, Vk * gm
+        K[rlx, 7], K[rly, 8], K[rnl, 8] = p * Vk, p * Vk, Vk * gl
+        if blend is not None:
+            K[rnl, 9] = Vk
         for a in range(nen):
             g = Gn[base + offs[a]]
-            w, wl, Nl = S[rw, a], S[rwl, a], S[rnl, a]
-            g[0] += w * Vk
-            g[1] += w * msx
-            g[2] += w * msy
-            g[3] += wl * mlx
-            g[4] += wl * mly
-            g[5] += S[SX, a] * t00 + S[SY, a] * t01
-            g[6] += S[SX, a] * t01 + S[SY, a] * t11 + S[SN, a] * gmV
-            g[7] += S[rlx, a] * pV
-            g[8] += S[rly, a] * pV + Nl * glV
-            if blend is not None:
-                g[9] += Nl * Vk
+            sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
+            if hrz is None and blend is None:
+                for f in range(nfc):
+                    g[f] += sN * K[SN, f] + sX * K[SX, f] + sY * K[SY, f]
+            else:
+                sW, sNl, sLx, sLy = S[SW, a], S[SNL, a], S[SLX, a], S[SLY, a]
+                for f in range(nfc):
+                    g[f] += (sN * K[SN, f] + sX * K[SX, f] + sY * K[SY, f] + sW * K[SW, f]
+                             + sNl * K[SNL, f] + sLx * K[SLX, f] + sLy * K[SLY, f])
 
 
 # -- nodal update ---------------------------------------------------------------------------
@@ -380,40 +385,35 @@ def _sign(v):
 
 @_jit
 def _implicit_node(S, Sl, R, dt):
-    """The implicit drag's coefficients of a node, the same for both directions: M_l, Q,
-    1 / (M_s + M_l), M~_l / (M_s + M_l), 1 / (M~_l M_s / (M_s + M_l) + Q dt), and for a
-    held phase 1 / (M~_l + Q dt), 1 / M_s (0 where a mass or denominator is not positive:
-    that phase is then held); one set of divisions per node, none per direction."""
+    """The implicit drag's coefficients of a node, the same for both directions: M_s, M_l,
+    M~_l, Q, 1 / (M_s + M_l) and 1 / (M~_l M_s / (M_s + M_l) + Q dt) (0 where a mass or
+    the denominator is not positive: that phase is then held), so that the directions
+    need no division of their own."""
     Ms, Ml, Mt, Q = R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl
     Mm = Ms + Ml
     inv_m = 1.0 / Mm if Mm > 0.0 else 0.0
     den = Mt * Ms * inv_m + Q * dt
-    return (Ml, Q, inv_m, Mt * inv_m, 1.0 / den if den > 0.0 else 0.0,
-            1.0 / (Mt + Q * dt) if Sl > 0.0 else 0.0, 1.0 / Ms if S > 0.0 else 0.0)
+    return Ms, Ml, Mt, Q, inv_m, 1.0 / den if den > 0.0 else 0.0
 
 
 @_jit
-def _implicit(coef, fm, fl, vsn, vln, held_s, held_l):
+def _implicit(coef, fm, fl, vsn, vln, held_s, held_l, dt):
     """Accelerations (a_s, a_l) of one DOF with backward Euler on the drag (the twophase
     module docstring): the relative acceleration b first, then a_s = (f_m - M_l b) / (M_s +
     M_l), a_l = a_s + b; a held phase (fixed, or without mass) has a = 0 and v = 0 and the
     other phase's equation alone. ``coef``: _implicit_node's."""
-    Ml, Q, inv_m, mt_m, inv_den, inv_alone_l, inv_alone_s = coef
+    Ms, Ml, Mt, Q, inv_m, inv_den = coef
     vs = 0.0 if held_s else vsn
     vl = 0.0 if held_l else vln
     r = fl - Q * (vl - vs)                       # f_l - Q w
-    b = (r - mt_m * fm) * inv_den
-    a_s = (fm - Ml * b) * inv_m
-    a_l = a_s + b
-    if held_l:
-        a_l = 0.0
-    elif held_s:
-        a_l = r * inv_alone_l
     if held_s:
-        a_s = 0.0
-    elif held_l:
-        a_s = fm * inv_alone_s
-    return a_s, a_l
+        a_l = 0.0 if held_l or not Mt > 0.0 else r / (Mt + Q * dt)
+        return 0.0, a_l
+    if held_l:
+        return (fm / Ms if Ms > 0.0 else 0.0), 0.0
+    b = (r - Mt * inv_m * fm) * inv_den
+    a_s = (fm - Ml * b) * inv_m
+    return a_s, a_s + b
 
 
 @_jit
@@ -449,7 +449,7 @@ def nodal_update(C, dt, load_factor, damping):
             free_s, free_l = B[b + 1 + d], B[b + 3 + d]
             if implicit:
                 a_s, a_l = _implicit(coef, fm, fl, vsn, vln, free_s == 0.0 or S <= 0.0,
-                                     free_l == 0.0 or Sl <= 0.0)
+                                     free_l == 0.0 or Sl <= 0.0, dt)
             else:
                 a_l = (fl - (vln - vsn) * (cq * Sl)) * (invSl * (1.0 / ct))
                 a_s = (fm - a_l * (cl * Sl)) * (invS * (1.0 / cs))
@@ -487,36 +487,35 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
+    # Sums over the nodes of S[r, a] O[a, f], per row r of S: N, dN/dx, dN/dy, and with the
+    # blended basis N_hat and its derivatives (a few vector operations per node).
+    A = carray(_on_stack(_ZROWS), (NS, NFMAX))
+    nr = 3 if blend is None else NS
     for k in range(n):
         base = _shape(off, C, R, xr[k, 0], xr[k, 1], S, hrz, blend)
-        a0 = a1 = a2 = a3 = a4 = a5 = a6 = a7 = 0.0
-        l00 = l01 = l10 = l11 = 0.0
-        dvl = dvs = 0.0
+        A[:nr, :NG] = 0.0
         for a in range(nen):
             h = On[base + offs[a]]
-            N, Nl, dx, dy, dlx, dly = (S[SN, a], S[rnl, a], S[SX, a], S[SY, a], S[rlx, a],
-                                       S[rly, a])
-            h4, h5, h6, h7 = h[4], h[5], h[6], h[7]
-            a0 += N * h[0]
-            a1 += N * h[1]
-            a2 += Nl * h[2]
-            a3 += Nl * h[3]
-            a4 += N * h4
-            a5 += N * h5
-            if pic:
-                a6 += Nl * h6
-                a7 += Nl * h7
-            l00 += h4 * dx
-            l01 += h4 * dy
-            l10 += h5 * dx
-            l11 += h5 * dy
-            dvl += h6 * dlx + h7 * dly
+            sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
+            for f in range(NG):
+                A[SN, f] += sN * h[f]
+                A[SX, f] += sX * h[f]
+                A[SY, f] += sY * h[f]
             if blended:
-                dvs += h4 * dlx + h5 * dly
+                sNl, sLx, sLy = S[SNL, a], S[SLX, a], S[SLY, a]
+                for f in range(NG):
+                    A[SNL, f] += sNl * h[f]
+                    A[SLX, f] += sLx * h[f]
+                    A[SLY, f] += sLy * h[f]
+        # N-interpolated accelerations and velocities, the liquid's in its basis.
+        a0, a1, a4, a5 = A[SN, 0], A[SN, 1], A[SN, 4], A[SN, 5]
+        a2, a3, a6, a7 = A[rnl, 2], A[rnl, 3], A[rnl, 6], A[rnl, 7]
+        l00, l01, l10, l11 = A[SX, 4], A[SY, 4], A[SX, 5], A[SY, 5]    # grad v_s [i, j]
+        dvl = A[rlx, 6] + A[rly, 7]                                    # div v_l
         if blended:
             # div (v_l - v_s) in the liquid's basis: the storage term is then div v_s +
             # n div(v_l - v_s), whose power the liquid force balances exactly.
-            dvl -= dvs
+            dvl -= A[SLX, 4] + A[SLY, 5]
         if pic:
             vs[k, 0] = flip * (vs[k, 0] + dt * a0) + (1 - flip) * a4
             vs[k, 1] = flip * (vs[k, 1] + dt * a1) + (1 - flip) * a5
