@@ -90,14 +90,22 @@ def _event(name: str):
     return ev
 
 
-def compile_kernels(nen: int, hrz, blend) -> dict:
-    """Compile or load the step's kernels for cells of nen nodes, lumping and liquid basis
-    hrz and blend (None or True) once per process, timed by the MPMCompile event; returns
+def kernel_variant(element: str, scheme) -> tuple:
+    """The compiled variant of the step's kernels for a cell type and scheme: the number of
+    the cell's nodes, and the lumping and liquid basis as None (row sums, the element's
+    basis) or True (HRZ, blended): their types select the machine code."""
+    return (len(shapes.OFFSETS[element]), True if scheme["lumping"] != "rowsum" else None,
+            True if scheme["liquid_basis"] == "blended" else None)
+
+
+def compile_kernels(element: str, scheme) -> dict:
+    """Compile (first run on a machine) or load from the disk cache the step's kernels for
+    a cell type and scheme, once per process, timed by the MPMCompile log event; returns
     :func:`solver.kernels.warm_up`'s record (seconds, compiled, loaded)."""
     ev = _event("MPMCompile")
     ev.begin()
     try:
-        return kernels.warm_up(nen, hrz, blend)
+        return kernels.warm_up(*kernel_variant(element, scheme))
     finally:
         ev.end()
 
@@ -161,11 +169,8 @@ class TwoPhase:
         self._integers(self._C)
         self._gen = None
         self._flags = None
-        # Lumping and liquid basis as the kernels' variant: None (row sums, the element's
-        # basis) or True (HRZ, blended), types that select compiled code.
-        self._hrz = True if self.hrz else None
-        self._blend = True if self.blend else None
-        self.compiled = compile_kernels(len(self._off), self._hrz, self._blend)
+        _, self._hrz, self._blend = kernel_variant(grid.element, scheme)
+        self.compiled = compile_kernels(grid.element, scheme)
         self.ev_p2g = _event("MPMPointsToGrid")
         self.ev_nodal = _event("MPMNodalUpdate")
         self.ev_g2p = _event("MPMGridToPoints")
@@ -384,12 +389,13 @@ class TwoPhase:
         """Send points that entered another rank's cells there (collective).
 
         ``flags`` are small integers every rank contributes; their maxima over the ranks
-        come back, so that decisions such as stopping are taken together in the same
-        reduction."""
+        come back (a sequence of as many), so that decisions such as stopping are taken
+        together in the same reduction."""
         self.ev_migrate.begin()
         if self.serial:
+            # The maxima over one rank are the flags themselves (no array: this is per step).
             self.ev_migrate.end()
-            return np.array(flags, dtype=np.int64)
+            return flags
         self._prepare()
         # A point stays when its cell, floor(x / h) clipped to the grid as Grid.locate
         # computes it, is in this rank's box (kernels.leaving).
