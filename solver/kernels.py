@@ -613,9 +613,33 @@ def leaving(C):
     return 0
 
 
+# -- checks -----------------------------------------------------------------------------------
+@_jit
+def problems(C, pmax, width, height, tol):
+    """The first local point (index; -1: none) with, in this order: a non-finite pore
+    pressure or velocity; |p| > pmax (Pa); J <= 0 (inverted); a position outside [-tol,
+    width + tol] x [-tol, height + tol] (m). NaN fails only the first test, as in NumPy."""
+    pp, vs, vl = _points1(C, PP), _points(C, PVS, 2), _points(C, PVL, 2)
+    J, x = _points1(C, PJ), _points(C, PX, 2)
+    f0 = f1 = f2 = f3 = -1
+    for k in range(C[PN]):
+        if f0 < 0 and not (np.isfinite(pp[k]) and np.isfinite(vs[k, 0])
+                           and np.isfinite(vs[k, 1]) and np.isfinite(vl[k, 0])
+                           and np.isfinite(vl[k, 1])):
+            f0 = k
+        if f1 < 0 and abs(pp[k]) > pmax:
+            f1 = k
+        if f2 < 0 and J[k] <= 0.0:
+            f2 = k
+        if f3 < 0 and (x[k, 0] < -tol or x[k, 0] > width + tol or x[k, 1] < -tol
+                       or x[k, 1] > height + tol):
+            f3 = k
+    return f0, f1, f2, f3
+
+
 # -- compilation ----------------------------------------------------------------------------
 KERNELS = (points_to_grid, nodal_update, grid_to_points, project_nodes, project_back,
-           grid_to_points_serial, leaving)
+           grid_to_points_serial, leaving, problems)
 _warm = {}
 
 
@@ -639,6 +663,7 @@ def warm_up(nen: int, hrz, blend) -> dict:
     project_back(off, C)
     grid_to_points_serial(off, C, hrz, blend, 0.0, 1.0)
     leaving(C)
+    problems(C, 0.0, 0.0, 0.0, 0.0)
     _warm[key] = dict(seconds=time.perf_counter() - t, **compile_counts())
     return _warm[key]
 

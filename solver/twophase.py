@@ -279,8 +279,8 @@ class TwoPhase:
         if self._gen == self.points.generation:
             return
         pts, K = self.points, kernels
-        (self.x, self.x0, self.V, self.vs, self.vl, self.sig, self.pp,
-         self.J) = pts.views("x", "x0", "volume", "vs", "vl", "stress", "p", "J")
+        (self.x, self.x0, self.V, self.vs, self.vl, self.sig, self.pp, self.J,
+         self.ids) = pts.views("x", "x0", "volume", "vs", "vl", "stress", "p", "J", "id")
         self.visc = pts.views("visc") if self.eta else None
         self.vslow = pts.views("vslow") if self.fast_rate else None
         self.xref = self.x0 if self.small else self.x
@@ -349,31 +349,28 @@ class TwoPhase:
     def check(self, step: int, t: float, scale: float):
         """Stop (NumericalError, on every rank) on non-finite values, unbounded pore pressure,
         an inverted material point or one that left the grid; name the point and the step."""
-        with self.points.fields("p", "vs", "vl", "J", "x", "id") as (pp, vs, vl, J, x, ids):
-            W, H = self.grid.size
-            tol = 1e-9 * max(W, H)
-            problems = [
-                ~(np.isfinite(pp) & np.isfinite(vs).all(axis=1) & np.isfinite(vl).all(axis=1)),
-                np.abs(pp) > 1e3 * scale,
-                J <= 0,
-                (x[:, 0] < -tol) | (x[:, 0] > W + tol) | (x[:, 1] < -tol) | (x[:, 1] > H + tol),
-            ]
-            first = [int(ids[m][0]) if m.any() else -1 for m in problems]
-            detail = {}
-            for kind, m in enumerate(problems):
-                if m.any():
-                    i = np.flatnonzero(m)[0]
-                    detail[kind] = (float(pp[i]), float(J[i]), x[i].tolist())
-        from mpi4py import MPI
+        self._prepare()
+        W, H = self.grid.size
+        local = kernels.problems(self._C, 1e3 * scale, W, H, 1e-9 * max(W, H))
+        first = [int(self.ids[i]) if i >= 0 else -1 for i in local]
+        if self.serial:
+            if max(first) < 0:
+                return
+            kind = next(k for k, f in enumerate(first) if f >= 0)
+            pid, info = first[kind], self._detail(local[kind])
+        else:
+            from mpi4py import MPI
 
-        mpi = self.grid.comm.tompi4py()
-        found = np.zeros(len(first), dtype=np.int64)
-        mpi.Allreduce((np.array(first) >= 0).astype(np.int64), found, op=MPI.MAX)
-        if not found.any():
-            return
-        kind = int(np.flatnonzero(found)[0])
-        owner = mpi.allreduce(self.grid.comm.getRank() if first[kind] >= 0 else -1, op=MPI.MAX)
-        pid, info = mpi.bcast((first[kind], detail.get(kind)), root=owner)
+            mpi = self.mpi
+            found = np.zeros(len(first), dtype=np.int64)
+            mpi.Allreduce((np.array(first) >= 0).astype(np.int64), found, op=MPI.MAX)
+            if not found.any():
+                return
+            kind = int(np.flatnonzero(found)[0])
+            owner = mpi.allreduce(self.grid.comm.getRank() if first[kind] >= 0 else -1,
+                                  op=MPI.MAX)
+            mine = (first[kind], self._detail(local[kind])) if first[kind] >= 0 else None
+            pid, info = mpi.bcast(mine, root=owner)
         pval, Jval, pos = info
         where = f"material point {pid} at ({pos[0]:.4g}, {pos[1]:.4g}) m, step {step}, " \
                 f"t = {t:.6g} s"
@@ -384,6 +381,10 @@ class TwoPhase:
             f"material point {pid} left the grid at ({pos[0]:.4g}, {pos[1]:.4g}) m by step "
             f"{step}, t = {t:.6g} s",
         ][kind])
+
+    def _detail(self, i):
+        """Pore pressure (Pa), volume ratio and position (m) of local point i."""
+        return float(self.pp[i]), float(self.J[i]), self.x[i].tolist()
 
     def migrate_if_needed(self, flags=(0,)):
         """Send points that entered another rank's cells there (collective).
