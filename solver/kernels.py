@@ -375,12 +375,9 @@ def points_to_grid(off, C, hrz, blend):
 # -- nodal update ---------------------------------------------------------------------------
 @_jit
 def _sign(v):
-    """np.sign: -1, 0, 1, NaN for NaN."""
-    if v > 0.0:
-        return 1.0
-    if v < 0.0:
-        return -1.0
-    return v * 0.0
+    """np.sign without branches (velocity signs are random: a mispredicted branch costs
+    more than the node's arithmetic); 0 for NaN, where the velocities are NaN anyway."""
+    return (1.0 if v > 0.0 else 0.0) - (1.0 if v < 0.0 else 0.0)
 
 
 @_jit
@@ -391,9 +388,11 @@ def _implicit_node(S, Sl, R, dt):
     need no division of their own."""
     Ms, Ml, Mt, Q = R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl
     Mm = Ms + Ml
-    inv_m = 1.0 / Mm if Mm > 0.0 else 0.0
-    den = Mt * Ms * inv_m + Q * dt
-    return Ms, Ml, Mt, Q, inv_m, 1.0 / den if den > 0.0 else 0.0
+    if not Mm > 0.0:
+        return Ms, Ml, Mt, Q, 0.0, 0.0
+    # (M~_l M_s / (M_s + M_l) + Q dt) (M_s + M_l): the two divisions are independent.
+    den = Mt * Ms + Q * dt * Mm
+    return Ms, Ml, Mt, Q, 1.0 / Mm, Mm / den if den > 0.0 else 0.0
 
 
 @_jit
