@@ -275,47 +275,52 @@ def _row_numbers(hrz, blend):
 
 
 @_jit
-def _shape(off, C, R, x, y, S, hrz, blend):
-    """Shape functions of the point at (x, y) (m) into the rows of S (_row_numbers), and
-    the ghosted-local number of its cell's node (0, 0)."""
+def _shape(off, C, R, x, y, S):
+    """Shape functions N, dN/dx, dN/dy of the point at (x, y) (m) into rows SN, SX, SY of
+    S; the ghosted-local number of its cell's node (0, 0) and the local coordinates. (The
+    kernels add the HRZ and blended rows themselves: with them inside, this function grows
+    past what the compiler inlines, and a call per point costs a third of the pass.)"""
     base, tx, ty = _locate(C, R, x, y)
     _put(S, _rows(off, R, tx, ty))
-    if hrz is not None or blend is not None:
-        _liquid_and_weights(C, R, tx, ty, S)
-    return base
+    return base, tx, ty
 
 
 @_jit
-def _liquid_and_weights(C, R, tx, ty, S):
-    """HRZ lumping weights N^2 / sum N^2 (assembly.lumping_weights) into row SW; the
-    blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner nodes)
-    and its derivatives into rows SNL, SLX, SLY, at local coordinates (tx, ty)."""
-    nen = S.shape[1]
-    if C[IHRZ]:
-        sq = 0.0
-        for a in range(nen):
-            sq += S[SN, a] * S[SN, a]
-        for a in range(nen):
-            S[SW, a] = S[SN, a] * S[SN, a] / sq
-    if C[IBLEND]:
-        w = R[RBLEND]
-        for r in range(3):
-            for a in range(nen):
-                S[SNL + r, a] = w * S[SN + r, a]
-        x, y = tx * 2.0 - 1.0, ty * 2.0 - 1.0
-        sx, sy = R[RSX], R[RSY]
-        for c in range(4):
-            i, j = c % 2, c // 2
-            vx = (1 - x) / 2 if i == 0 else (1 + x) / 2
-            vy = (1 - y) / 2 if j == 0 else (1 + y) / 2
-            ddx = -0.5 if i == 0 else 0.5
-            ddy = -0.5 if j == 0 else 0.5
-            # Corner c in the cell's numbering (shapes.corners): Q4 0-3, Q8 0 2 5 7, Q9
-            # 0 2 6 8.
-            a = c if nen == 4 else (c % 2) * 2 + (c // 2) * (nen - 3)
-            S[SNL, a] += (1 - w) * (vx * vy)
-            S[SLX, a] += (1 - w) * (ddx * vy) * sx
-            S[SLY, a] += (1 - w) * (vx * ddy) * sy
+def _hrz_weights(off, S):
+    """HRZ lumping weights N^2 / sum N^2 (assembly.lumping_weights) into row SW."""
+    sq = 0.0
+    for a in range(len(off)):
+        sq += S[SN, a] * S[SN, a]
+    inv = 1.0 / sq
+    for a in range(len(off)):
+        S[SW, a] = S[SN, a] * S[SN, a] * inv
+
+
+@_jit
+def _blended(off, R, tx, ty, S):
+    """The blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner
+    nodes) and its derivatives into rows SNL, SLX, SLY, at local coordinates (tx, ty)."""
+    nen, w = len(off), R[RBLEND]
+    for a in range(nen):
+        S[SNL, a], S[SLX, a], S[SLY, a] = w * S[SN, a], w * S[SX, a], w * S[SY, a]
+    x, y = tx * 2.0 - 1.0, ty * 2.0 - 1.0
+    vx0, vx1, vy0, vy1 = (1 - x) / 2, (1 + x) / 2, (1 - y) / 2, (1 + y) / 2
+    u = 1 - w
+    ux, uy = -0.5 * u * R[RSX], -0.5 * u * R[RSY]     # (1 - w) dl_0/dxi d(xi)/dx, ... dy
+    # The corners in the cell's numbering (shapes.corners), in the Q4 order.
+    c0, c1, c2, c3 = (0, 1, 2, 3) if nen == 4 else ((0, 2, 5, 7) if nen == 8 else (0, 2, 6, 8))
+    S[SNL, c0] += u * (vx0 * vy0)
+    S[SNL, c1] += u * (vx1 * vy0)
+    S[SNL, c2] += u * (vx0 * vy1)
+    S[SNL, c3] += u * (vx1 * vy1)
+    S[SLX, c0] += ux * vy0
+    S[SLX, c1] -= ux * vy0
+    S[SLX, c2] += ux * vy1
+    S[SLX, c3] -= ux * vy1
+    S[SLY, c0] += uy * vx0
+    S[SLY, c1] += uy * vx1
+    S[SLY, c2] -= uy * vx0
+    S[SLY, c3] -= uy * vx1
 
 
 # -- points to grid -------------------------------------------------------------------------
@@ -336,40 +341,55 @@ def points_to_grid(off, C, hrz, blend):
     visc = _points1(C, PVISC)
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
-    nfc = NF if blend is None else NF + 1
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
-    # The point's coefficients per row of S and nodal field: node a's field f gains
-    # sum_r S[r, a] K[r, f]. Zero except where a point writes them (the same places for
-    # every point of a variant): then the node loop is a few vector operations.
+    # Row sums with the element's basis: the point's coefficients per row of S and nodal
+    # field, node a's field f gaining sum_r S[r, a] K[r, f]; zero except where every point
+    # writes them.
     K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
     for k in range(n):
-        base = _shape(off, C, R, xr[k, 0], xr[k, 1], S, hrz, blend)
+        base, tx, ty = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
+        if hrz is not None:
+            _hrz_weights(off, S)
+        if blend is not None:
+            _blended(off, R, tx, ty, S)
         Vk, p = V[k], pp[k]
         t00, t11 = p - sig[k, 0], p - sig[k, 1]
         if eta:
             t00 -= visc[k]
             t11 -= visc[k]
-        K[rw, 0], K[rw, 1], K[rw, 2] = Vk, vs[k, 0] * Vk, vs[k, 1] * Vk
-        K[rwl, 3], K[rwl, 4] = vl[k, 0] * Vk, vl[k, 1] * Vk
+        t00 *= Vk
+        t11 *= Vk
         t01 = -(sig[k, 2] * Vk)
-        K[SX, 5], K[SY, 5] = t00 * Vk, t01
-        K[SX, 6], K[SY, 6], K[SN, 6] = t01, t11 * Vk, Vk * gm
-        K[rlx, 7], K[rly, 8], K[rnl, 8] = p * Vk, p * Vk, Vk * gl
-        if blend is not None:
-            K[rnl, 9] = Vk
+        msx, msy, mlx, mly = vs[k, 0] * Vk, vs[k, 1] * Vk, vl[k, 0] * Vk, vl[k, 1] * Vk
+        pV, gmV, glV = p * Vk, Vk * gm, Vk * gl
+        if hrz is None and blend is None:
+            # w = w_l = N_l = N: three rows of coefficients, a few vector operations.
+            K[SN, 0], K[SN, 1], K[SN, 2], K[SN, 3], K[SN, 4] = Vk, msx, msy, mlx, mly
+            K[SX, 5], K[SY, 5] = t00, t01
+            K[SX, 6], K[SY, 6], K[SN, 6] = t01, t11, gmV
+            K[SX, 7], K[SY, 8], K[SN, 8] = pV, pV, glV
+            for a in range(nen):
+                g = Gn[base + offs[a]]
+                sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
+                for f in range(NF):
+                    g[f] += sN * K[SN, f] + sX * K[SX, f] + sY * K[SY, f]
+            continue
         for a in range(nen):
             g = Gn[base + offs[a]]
-            sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
-            if hrz is None and blend is None:
-                for f in range(nfc):
-                    g[f] += sN * K[SN, f] + sX * K[SX, f] + sY * K[SY, f]
-            else:
-                sW, sNl, sLx, sLy = S[SW, a], S[SNL, a], S[SLX, a], S[SLY, a]
-                for f in range(nfc):
-                    g[f] += (sN * K[SN, f] + sX * K[SX, f] + sY * K[SY, f] + sW * K[SW, f]
-                             + sNl * K[SNL, f] + sLx * K[SLX, f] + sLy * K[SLY, f])
+            w, wl, Nl, dx, dy = S[rw, a], S[rwl, a], S[rnl, a], S[SX, a], S[SY, a]
+            g[0] += w * Vk
+            g[1] += w * msx
+            g[2] += w * msy
+            g[3] += wl * mlx
+            g[4] += wl * mly
+            g[5] += dx * t00 + dy * t01
+            g[6] += dx * t01 + dy * t11 + S[SN, a] * gmV
+            g[7] += S[rlx, a] * pV
+            g[8] += S[rly, a] * pV + Nl * glV
+            if blend is not None:
+                g[9] += Nl * Vk
 
 
 # -- nodal update ---------------------------------------------------------------------------
@@ -491,7 +511,11 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))
     nr = 3 if blend is None else NS
     for k in range(n):
-        base = _shape(off, C, R, xr[k, 0], xr[k, 1], S, hrz, blend)
+        base, tx, ty = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
+        if hrz is not None:
+            _hrz_weights(off, S)
+        if blend is not None:
+            _blended(off, R, tx, ty, S)
         A[:nr, :NG] = 0.0
         for a in range(nen):
             h = On[base + offs[a]]
