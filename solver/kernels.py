@@ -31,7 +31,8 @@ Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__``
 or loads the kernels of a cell type at model set-up, inside the ``MPMCompile`` log event,
 so that the step's own events never include it. ``error_model='numpy'``: a division by
 zero gives inf or NaN as NumPy does (the run's blow-up check reports it) instead of
-raising.
+raising. ``fastmath={'contract'}`` only lets a b + c become one fused multiply-add (one
+rounding instead of two); nothing is reordered or assumed finite.
 """
 
 from __future__ import annotations
@@ -512,8 +513,8 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     nr = 3 if blend is None else NS
     for k in range(n):
         base, tx, ty = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
-        if hrz is not None:
-            _hrz_weights(off, S)
+        if hrz is not None and project:
+            _hrz_weights(off, S)                  # the projection's weights only
         if blend is not None:
             _blended(off, R, tx, ty, S)
         A[:nr, :NG] = 0.0
