@@ -521,14 +521,17 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
         for a in range(nen):
             h = On[base + offs[a]]
             sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
+            # All fields interpolated; the gradients only of the velocities (fields 4-7).
             for f in range(NG):
                 A[SN, f] += sN * h[f]
+            for f in range(4, NG):
                 A[SX, f] += sX * h[f]
                 A[SY, f] += sY * h[f]
             if blended:
                 sNl, sLx, sLy = S[SNL, a], S[SLX, a], S[SLY, a]
                 for f in range(NG):
                     A[SNL, f] += sNl * h[f]
+                for f in range(4, NG):
                     A[SLX, f] += sLx * h[f]
                     A[SLY, f] += sLy * h[f]
         # N-interpolated accelerations and velocities, the liquid's in its basis.
