@@ -9,8 +9,9 @@ from .errors import InputError
 from .shapes import ORDER
 
 # Bytes per material point of a consolidation run and per grid node: generous bounds; they
-# only have to separate a model that fits from one that cannot. Measured peak: 356 B per Q4
-# point, 429 B per Q9 point at 1e6 points (docs/performance.md).
+# only have to separate a model that fits from one that cannot. Measured peak: 447 B per Q4
+# point, 483 B per Q9 point at 1e6 points, the process's fixed part included
+# (docs/performance.md).
 BYTES_PER_POINT = 1000
 BYTES_PER_NODE = 2000
 

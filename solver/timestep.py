@@ -193,7 +193,7 @@ def _accelerations(parts, dt):
     """L_U, L_y over the free DOFs at the time step dt.
 
     Explicit drag: a_l = (f_l - Q (y_l - y_s)) / M~_l, a_s = (f_m - M_l a_l) / M_s.
-    Implicit drag (``TwoPhase._nodal``): per DOF, with r = f_l - Q (y_l - y_s),
+    Implicit drag (``kernels.nodal_update``): per DOF, with r = f_l - Q (y_l - y_s),
         M_s a_s + M_l a_l = f_m,    (M~_l + Q dt) a_l - Q dt a_s = r,
     solved in closed form, det = M_s M~_l + Q dt (M_s + M_l); a phase held fixed leaves the
     other alone (solid fixed: a_l = r / (M~_l + Q dt); liquid fixed: a_s = f_m / M_s). The
