@@ -58,15 +58,19 @@ def default_lumping(element: str) -> str:
     return "hrz" if element == "q8" else "rowsum"
 
 
+def auto_scheme(element: str) -> dict:
+    """What ``auto`` means for each discretisation choice of the step on a cell type."""
+    return {"lumping": default_lumping(element),
+            "kinematics": "small",
+            "pressure_projection": "nodal" if element == "q4" else "none",
+            "liquid_basis": "blended" if element == "q8" else "element"}
+
+
 def step_scheme(p) -> dict:
     """The explicit step's discretisation choices, with ``auto`` resolved per element: the
     most accurate measured (docs/studies.md, "Quadratic cells"); the drag treatment and the
     mass scaling factor S (a number, ``auto`` resolved by :func:`solver.inertia.scaling`)."""
-    e = p.element
-    auto = {"lumping": default_lumping(e),
-            "kinematics": "small",
-            "pressure_projection": "nodal" if e == "q4" else "none",
-            "liquid_basis": "blended" if e == "q8" else "element"}
+    auto = auto_scheme(p.element)
     scheme = {k: auto[k] if getattr(p, k) == "auto" else getattr(p, k) for k in auto}
     from . import inertia   # it needs the wave speeds, which need this module
 
