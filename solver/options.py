@@ -201,7 +201,7 @@ SPEC = [
            (CONSOLIDATION,), _nonnegative),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
-    Option("figures", "bool", True, "write PNG figures"),
+    Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),
     Option("figure_format", "str", "png", "formats of the figures, comma-separated: png, pdf, "
            "svg (e.g. png,pdf)", check=_figure_formats),
     Option("debug", "bool", False, "show the Python traceback of a failure"),

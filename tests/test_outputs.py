@@ -329,3 +329,30 @@ def test_xdmf_index_is_whole_after_every_step(tmp_path):
     # The entries survive a checkpoint as JSON.
     again = output.XdmfSeries(str(tmp_path / "pts.xdmf"), json.loads(json.dumps(series.entries)))
     assert again.index() == series.index()
+
+
+def test_restart_continues_series_and_settlement(cli, tmp_path):
+    """A run stopped after a checkpoint and restarted (on 2 ranks) in the same folder: the
+    series keeps the steps written before the checkpoint and rewrites the later ones, the
+    settlement history and the degree of consolidation go on without a gap or a repeat."""
+    out = tmp_path / "run"
+    quiet = ["-mpm_progress", "0", "-mpm_figures", "0"]
+    first = check_ok(cli(quiet + ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.01,0.02",
+                                  "-mpm_checkpoint_every", "100"],
+                         options_file="consolidation-m1-q4", out_dir=out))
+    assert first["steps"] > 1000
+    s = check_ok(cli(quiet + ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.01,0.02,0.05",
+                              "-mpm_restart", out / "checkpoint.npz"], ranks=2,
+                     options_file="consolidation-m1-q4", out_dir=out))
+    _, _, steps, _ = _series(out / "points.xdmf")
+    want = [round(Tv * H ** 2 / (CV * s["dt"])) * s["dt"] for Tv in (0.01, 0.02, 0.05)]
+    assert [t for t, _, _ in steps] == pytest.approx(want, rel=1e-12)
+    assert len(list(out.glob("points_*.h5"))) == 3
+    d = s["consolidation_degree"]
+    assert d["Tv"] == [0.01, 0.02, 0.05]
+    assert d["settlement_m"][:2] == pytest.approx(first["consolidation_degree"]["settlement_m"],
+                                                  rel=1e-9)
+    table = np.loadtxt(out / "settlement.csv", delimiter=",", skiprows=1)
+    steps_done = np.round(table[:, 0] / s["dt"]).astype(int)
+    assert np.all(np.diff(steps_done) > 0) and steps_done[-1] == s["steps"]
+    assert np.all(np.diff(steps_done) <= 10)
