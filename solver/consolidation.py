@@ -563,21 +563,44 @@ class _Surface:
         q = p.load
         self.s0, self.s_inf = q * self.H / undrained, q * self.H / E_c
         self.p0 = analytic.undrained_pressure(q, E_c, p.K_l, p.porosity)
+        self._generation = None     # of the points when the fit's selection was made
 
     def measure(self, points, mpi):
-        """(settlement (m), mean p (Pa)) now, on every rank (one small Allreduce)."""
+        """(settlement (m), mean p (Pa)) now, on every rank (every 10 steps: the selection
+        and the fit's weights are kept until points move between ranks; on several ranks
+        one Allreduce of a few numbers)."""
+        # The generation changes on every rank together (migrate and resize are collective),
+        # so every rank takes part in _select's reduction.
+        if self._generation != points.generation:
+            self._select(points, mpi)
+        x, x0, pp = points.views("x", "x0", "p")
+        top, basis, weights, volume = self._fit
+        buf = self._buf
+        buf[:-1] = basis @ (x[top, 1] - x0[top, 1])
+        buf[-1] = self._volume @ pp
+        if mpi.Get_size() > 1:
+            from mpi4py import MPI
+
+            mpi.Allreduce(MPI.IN_PLACE, buf, op=MPI.SUM)
+        return -float(weights @ buf[:-1]), buf[-1] / volume
+
+    def _select(self, points, mpi):
+        """The points of the top cell row and the least-squares weights of the fit's value
+        at y = H: row 0 of (A^T A)^-1 over all ranks, A the Vandermonde matrix in
+        (y0 - H) / h (collective)."""
         from mpi4py import MPI
 
-        x, x0, pp, V = points.views("x", "x0", "p", "volume")
-        top = x0[:, 1] > self.H - self.h          # half a row of points from either side
+        x0, V = points.views("x0", "volume")
+        top = np.flatnonzero(x0[:, 1] > self.H - self.h)   # half a row from either side
         A = np.vander((x0[top, 1] - self.H) / self.h, self.order + 1, increasing=True)
+        sums = np.append((A.T @ A).ravel(), float(np.sum(V)))
+        mpi.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
         n = self.order + 1
-        buf = np.concatenate([(A.T @ A).ravel(), A.T @ (x[top, 1] - x0[top, 1]),
-                              [float(np.dot(V, pp)), float(np.sum(V))]])
-        if mpi.Get_size() > 1:
-            mpi.Allreduce(MPI.IN_PLACE, buf, op=MPI.SUM)
-        coef = np.linalg.solve(buf[:n * n].reshape(n, n), buf[n * n:n * n + n])
-        return -float(coef[0]), buf[-2] / buf[-1]
+        weights = np.linalg.inv(sums[:-1].reshape(n, n))[0]
+        self._fit = (top, A.T.copy(), weights, sums[-1])
+        self._volume = V
+        self._buf = np.empty(n + 1)
+        self._generation = points.generation
 
     def degrees(self, rows):
         """(U from settlement, U from pressure) of history rows (t, Tv, s, mean p); NaN

@@ -26,8 +26,6 @@ C2 = K / (GAMMA_W * (1 / E_C + N_POR / K_L))
 S_INF = Q * H / E_C                       # drained: the constrained modulus
 S_0 = Q * H / (E_C + K_L / N_POR)         # undrained: the water's stiffness K_l / n too
 REPORTS = (0.1, 0.5)
-# dt of the scene (0.5 x the drag limit, printed by every run) and the step of a report time.
-DT = 7.33e-5
 
 
 def terzaghi_mean(Tv, nodes=400):
@@ -73,15 +71,28 @@ def test_degree_of_consolidation_arrays_and_switch():
 
 
 # -- one consolidation run per rank count --------------------------------------------------
-@pytest.fixture(scope="module", params=[1, 2], ids=["1rank", "2ranks"])
-def m1(request, tmp_path_factory):
-    """consolidation-m1-q4 to T_v = 0.5, reports at 0.1 and 0.5, figures as PNG and PDF."""
-    out = tmp_path_factory.mktemp(f"m1-n{request.param}") / "out"
-    res = run_cli(["-mpm_Tv_end", "0.5", "-mpm_Tv_report", ",".join(map(str, REPORTS)),
-                   "-mpm_progress", "0", "-mpm_figure_format", "png,pdf",
-                   "-options_left", "0"], out, ranks=request.param,
-                  options_file="consolidation-m1-q4")
-    return check_ok(res), out, res
+@pytest.fixture(scope="module")
+def m1_run(tmp_path_factory):
+    """``m1_run(ranks)``: consolidation-m1-q4 to T_v = 0.5, reports at 0.1 and 0.5, figures
+    as PNG and PDF, run once per rank count: (summary, out folder, CliResult)."""
+    cache = {}
+
+    def get(ranks):
+        if ranks not in cache:
+            out = tmp_path_factory.mktemp(f"m1-n{ranks}") / "out"
+            res = run_cli(["-mpm_Tv_end", "0.5", "-mpm_Tv_report",
+                           ",".join(map(str, REPORTS)), "-mpm_progress", "0",
+                           "-mpm_figure_format", "png,pdf", "-options_left", "0"],
+                          out, ranks=ranks, options_file="consolidation-m1-q4")
+            cache[ranks] = (check_ok(res), out, res)
+        return cache[ranks]
+
+    return get
+
+
+@pytest.fixture(params=[1, 2], ids=["1rank", "2ranks"])
+def m1(request, m1_run):
+    return m1_run(request.param)
 
 
 def test_settlement_and_degree_against_terzaghi(m1):
@@ -187,16 +198,10 @@ def test_xdmf_series_at_the_report_times(m1):
         assert np.all(np.isfinite(data["pore_pressure"]))
 
 
-def test_xdmf_same_on_two_ranks(m1, tmp_path_factory):
+def test_xdmf_same_on_two_ranks(m1_run):
     """The 2-rank series equals the 1-rank one, point by point (matched by position)."""
-    s, out, _ = m1
-    if s["ranks"] == 1:
-        pytest.skip("compared from the 2-rank run")
-    one = sorted(p for p in tmp_path_factory.getbasetemp().glob("m1-n1*/out/points.xdmf"))
-    if not one:
-        pytest.skip("the 1-rank run is not in this session")
-    _, _, steps1, geo1 = _series(one[0])
-    _, _, steps2, geo2 = _series(out / "points.xdmf")
+    _, _, steps1, geo1 = _series(m1_run(1)[1] / "points.xdmf")
+    _, _, steps2, geo2 = _series(m1_run(2)[1] / "points.xdmf")
     assert len(steps1) == len(steps2)
     for (t1, d1, _), (t2, d2, _), g1, g2 in zip(steps1, steps2, geo1, geo2):
         assert t1 == t2
