@@ -334,15 +334,8 @@ def run(p, comm) -> int:
     if comm.getRank() == 0:
         if series.entries:
             files["fields_xdmf"] = series.xdmf
-        files["settlement_csv"] = surface.write_csv(p.output, settlement, c2 / cv)
         files.update(_write_files(p, profiles, history, cv, c2, p0, monitor_height))
-        if p.figures:
-            fig = figures.consolidation_degree(
-                output.pyplot(), np.array(settlement).reshape(-1, 4)[:, 1],
-                *surface.degrees(settlement), c2 / cv, p.Tv_end,
-                f"Degree of consolidation, {p.element.upper()} {p.cells[0]} x {p.cells[1]} "
-                "cells")
-            files.update(output.save_figures(fig, p.output, "settlement", p.figure_format))
+        files.update(_settlement_files(p, surface, settlement, c2 / cv))
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
                     comm=comm)
@@ -682,6 +675,19 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
                    header="Tv,t_s,x_m,y0_m,p_over_q,volume_m3", comments="")
     if p.figures:
         files.update(_figures(p, profiles, hist, c2 / cv, p0, monitor_height))
+    return files
+
+
+def _settlement_files(p, surface, rows, ratio):
+    """settlement.csv and the figure of U against T_v from the history ``rows`` (t, Tv,
+    s, mean p); ``ratio`` = c2 / c_v; rank 0."""
+    files = {"settlement_csv": surface.write_csv(p.output, rows, ratio)}
+    if p.figures:
+        fig = figures.consolidation_degree(
+            output.pyplot(), np.array(rows, dtype=float).reshape(-1, 4)[:, 1],
+            *surface.degrees(rows), ratio, p.Tv_end,
+            f"Degree of consolidation, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
+        files.update(output.save_figures(fig, p.output, "settlement", p.figure_format))
     return files
 
 
