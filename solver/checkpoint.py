@@ -17,7 +17,7 @@ from . import output
 from .errors import InputError
 
 # Options that do not change the physics of a run: they may differ on restart.
-FREE_OPTIONS = {"output", "summary", "figures", "debug", "progress", "restart",
+FREE_OPTIONS = {"output", "summary", "figures", "figure_format", "debug", "progress", "restart",
                 "checkpoint_every", "checkpoint_seconds", "output_every", "Tv_end", "Tv_report",
                 "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
                 "stability_analysis"}

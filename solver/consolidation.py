@@ -20,7 +20,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
-               output, timestep, workprecision)
+               output, provenance, timestep, workprecision)
 from .errors import InputError, Interrupted, NumericalError
 from .grid import Grid
 from .points import place
@@ -203,6 +203,9 @@ def run(p, comm) -> int:
     files = {}
     series = _Series(p.output, comm)
     history = []          # (t, Tv, p/q at the monitor)
+    surface = _Surface(grid, p)
+    settlement = []       # (t, Tv, surface settlement (m), mean p (Pa)), as history
+    degree = []           # the degree of consolidation at the report times
     reports, profiles = [], []
     first = 1
     if restart is not None:
@@ -211,7 +214,9 @@ def run(p, comm) -> int:
         history = [tuple(h) for h in st["history"]]
         reports = st["reports"]
         profiles = [(a, b, np.array(c)) for a, b, c in st["profiles"]]
-        series.entries = [tuple(e) for e in st["series"]]
+        settlement = [tuple(r) for r in st.get("settlement", [])]
+        degree = st.get("degree", [])
+        series.resume(st["series"])
         PETSc.Sys.Print(f"Restart from {p.restart} at step {st['step']} "
                         f"(t = {st['step'] * dt:.6g} s)", comm=comm)
     ckpt_path = os.path.join(p.output, "checkpoint.npz")
@@ -227,7 +232,8 @@ def run(p, comm) -> int:
                "fast_damping": p.fast_damping, "flip": p.flip,
                "f1_hz": f1, "c_v": cv, "c2": c2,
                "p0_consistent_over_q": p0, "regime": regime,
-               "scene": workprecision.scene_signature(p)}
+               "scene": workprecision.scene_signature(p),
+               "provenance": provenance.collect(comm, p)}
     if warn:
         summary["warnings"] = [warn]
     if goal is not None:
@@ -241,7 +247,8 @@ def run(p, comm) -> int:
 
     def state(step):
         return {"step": step, "dt": dt, "mass_scaling": S, "history": history,
-                "reports": reports, "profiles": profiles, "series": series.entries}
+                "reports": reports, "profiles": profiles, "series": series.entries,
+                "settlement": settlement, "degree": degree}
 
     try:
         for k in range(first, nsteps + 1):
@@ -255,6 +262,7 @@ def run(p, comm) -> int:
                 model.check(k, t, scale)
             if k % 10 == 0 or k in iso_steps:
                 history.append((t, cv * t / (H * H), _monitor(points, mpi) / q))
+                settlement.append((t, cv * t / (H * H), *surface.measure(points, mpi)))
             if k in iso_steps:
                 prof = _profile(points, comm)
                 if comm.getRank() == 0:
@@ -262,8 +270,12 @@ def run(p, comm) -> int:
                 if k in report_steps:
                     reports.append(_report(report_steps[k], t, points, mpi, p, monitor_height,
                                            cv, c2, p0, prof if comm.getRank() == 0 else None))
-            if (p.output_every and k % p.output_every == 0) or k in iso_steps:
-                series.write(points, k, t, cv * t / (H * H))
+                    degree.append(surface.report(report_steps[k], settlement[-1], c2 / cv))
+                    if comm.getRank() == 0:
+                        files["settlement_csv"] = surface.write_csv(p.output, settlement,
+                                                                    c2 / cv)
+            if (p.output_every and k % p.output_every == 0) or k in report_steps:
+                series.write(points, k, t)
             if signal_seen or due or (p.checkpoint_every and k % p.checkpoint_every == 0):
                 checkpoint.write(ckpt_path, comm, points, state(k), p)
                 last_ckpt = time.perf_counter()
@@ -306,7 +318,9 @@ def run(p, comm) -> int:
     summary["profile_l2"] = {"Tv": [r["Tv"] for r in reports],
                              "terzaghi": [r["l2_terzaghi"] for r in reports],
                              "consistent": [r["l2_consistent"] for r in reports]}
+    summary["consolidation_degree"] = surface.summary(degree)
     _print_reports(comm, reports, p)
+    _print_degree(comm, degree)
     if goal is not None:
         goal["achieved_pct"] = workprecision.measure(summary)
         if math.isnan(goal["achieved_pct"]):
@@ -317,9 +331,11 @@ def run(p, comm) -> int:
                    f"({'met' if met else 'NOT met'})"
         PETSc.Sys.Print(f"Target error {p.target_error:g} %: {said}", comm=comm)
     files["summary"] = summary_path
-    files["fields_pvd"] = series.pvd
     if comm.getRank() == 0:
+        if series.entries:
+            files["fields_xdmf"] = series.xdmf
         files.update(_write_files(p, profiles, history, cv, c2, p0, monitor_height))
+        files.update(_settlement_files(p, surface, settlement, c2 / cv))
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
                     comm=comm)
@@ -471,36 +487,175 @@ class _Signals:
 
 
 class _Series:
-    """Point fields as a VTU time series with a ParaView .pvd index, each file written whole."""
+    """Point fields as an XDMF + HDF5 time series (:class:`output.XdmfSeries`, written by
+    rank 0): positions, displacement x - x0, both velocities (m, m/s; 3-vectors, z = 0),
+    pore pressure and the effective stress components (Pa, tension positive). Points are
+    in the order of their global numbers, so a point keeps its index from step to step
+    whatever rank holds it (ParaView's selections and plots over time follow it)."""
 
     def __init__(self, folder, comm):
-        self.folder, self.comm = folder, comm
-        self.pvd = os.path.join(folder, "points.pvd")
-        self.entries = []
+        self.comm = comm
+        self.xdmf = os.path.join(folder, "points.xdmf")
+        self.writer = output.XdmfSeries(self.xdmf) if comm.getRank() == 0 else None
 
-    def write(self, points, step, t, Tv):
-        x, pp, sig, vs, vl = points.get("x", "p", "stress", "vs", "vl")
-        data = np.column_stack([x, pp, sig, vs, vl])
+    @property
+    def entries(self) -> list:
+        return self.writer.entries if self.writer else []
+
+    def resume(self, entries):
+        """Continue the series of a checkpoint: its steps whose files are in this output
+        folder (a restart elsewhere starts a new series; older checkpoints held VTU names)."""
+        if self.writer:
+            self.writer.entries = [list(e) for e in entries if isinstance(e, (list, tuple))
+                                   and len(e) == 4 and os.path.isfile(
+                                       os.path.join(self.writer.folder, str(e[1])))]
+
+    def write(self, points, step, t):
+        names = ("x", "x0", "p", "stress", "vs", "vl", "id")
+        data = np.column_stack(points.get(*names))
         parts = self.comm.tompi4py().gather(data, root=0)
-        if self.comm.getRank() != 0:
+        if self.writer is None:
             return
         d = np.concatenate(parts)
-        name = f"points_{step:07d}.vtu"
+        d = d[np.argsort(d[:, 12], kind="stable")]
         z = np.zeros((len(d), 1))
-        output.write_vtu(os.path.join(self.folder, name), d[:, 0:2],
-                         [("vertex", np.arange(len(d)).reshape(-1, 1))],
-                         point_data={"pore_pressure": d[:, 2],
-                                     "effective_stress": d[:, 3:6],
-                                     "velocity_solid": np.hstack([d[:, 6:8], z]),
-                                     "velocity_liquid": np.hstack([d[:, 8:10], z])})
-        self.entries.append((t, name))
-        body = "\n".join(f'    <DataSet timestep="{tt:.9g}" file="{f}"/>'
-                         for tt, f in self.entries)
-        text = ('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
-                f"  <Collection>\n{body}\n  </Collection>\n</VTKFile>\n")
-        with output.atomic(self.pvd) as tmp:
-            with open(tmp, "w") as fh:
-                fh.write(text)
+        self.writer.write(step, t, d[:, 0:2], {
+            "displacement": np.hstack([d[:, 0:2] - d[:, 2:4], z]),
+            "velocity_solid": np.hstack([d[:, 8:10], z]),
+            "velocity_liquid": np.hstack([d[:, 10:12], z]),
+            "pore_pressure": d[:, 4],
+            "effective_stress_xx": d[:, 5], "effective_stress_yy": d[:, 6],
+            "effective_stress_xy": d[:, 7]})
+
+
+class _Surface:
+    """Surface settlement and mean excess pore pressure, the two measures of the degree of
+    consolidation, and their references (the load case: gravity has none here).
+
+    Settlement s (m, downwards positive): the points' vertical displacement x - x0 in the
+    top row of cells, fitted by least squares with a polynomial in y0 of the element's
+    order (at most one less than the rows of points per cell) and taken at the surface
+    y = H. A point's displacement is the element's interpolation of the nodal displacements
+    (small kinematics: exactly), so the fit gives the settlement of the top nodes; the top
+    row of points alone would miss the compression of the half row above it (2.5 % of the
+    final settlement on M1-Q4, one point row per cell: then the fit is that row's mean).
+    Mean pressure: the points' volume-weighted mean p (Pa).
+
+    References (Pa, m): p0 = q (K_l/n) / (K_l/n + E_c) the undrained pore pressure, s0 =
+    q H / (E_c + K_l/n) the undrained settlement, s_inf = q H / E_c the final one; then
+    U_s = (s - s0) / (s_inf - s0) and U_p = 1 - mean p / p0, both Terzaghi's U with
+    compressible water (diffusivity c2), and classic Terzaghi's for incompressible water.
+    """
+
+    def __init__(self, grid, p):
+        self.H, self.h = p.size[1], grid.h[1]
+        self.order = min(grid.p, p.ppc - 1)
+        E_c = assembly.constrained_modulus(p.E, p.nu)
+        undrained = E_c + p.K_l / p.porosity
+        self.valid = p.gravity == 0 and p.load > 0
+        q = p.load
+        self.s0, self.s_inf = q * self.H / undrained, q * self.H / E_c
+        self.p0 = analytic.undrained_pressure(q, E_c, p.K_l, p.porosity)
+        self._generation = None     # of the points when the fit's selection was made
+
+    def measure(self, points, mpi):
+        """(settlement (m), mean p (Pa)) now, on every rank (every 10 steps: the selection
+        and the fit's weights are kept until points move between ranks; on several ranks
+        one Allreduce of a few numbers)."""
+        # The generation changes on every rank together (migrate and resize are collective),
+        # so every rank takes part in _select's reduction.
+        if self._generation != points.generation:
+            self._select(points, mpi)
+        x, x0, pp = points.views("x", "x0", "p")
+        top, basis, weights, volume = self._fit
+        buf = self._buf
+        buf[:-1] = basis @ (x[top, 1] - x0[top, 1])
+        buf[-1] = self._volume @ pp
+        if mpi.Get_size() > 1:
+            from mpi4py import MPI
+
+            mpi.Allreduce(MPI.IN_PLACE, buf, op=MPI.SUM)
+        return -float(weights @ buf[:-1]), buf[-1] / volume
+
+    def _select(self, points, mpi):
+        """The points of the top cell row and the least-squares weights of the fit's value
+        at y = H: row 0 of (A^T A)^-1 over all ranks, A the Vandermonde matrix in
+        (y0 - H) / h (collective)."""
+        from mpi4py import MPI
+
+        x0, V = points.views("x0", "volume")
+        top = np.flatnonzero(x0[:, 1] > self.H - self.h)   # half a row from either side
+        A = np.vander((x0[top, 1] - self.H) / self.h, self.order + 1, increasing=True)
+        sums = np.append((A.T @ A).ravel(), float(np.sum(V)))
+        mpi.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+        n = self.order + 1
+        weights = np.linalg.inv(sums[:-1].reshape(n, n))[0]
+        self._fit = (top, A.T.copy(), weights, sums[-1])
+        self._volume = V
+        self._buf = np.empty(n + 1)
+        self._generation = points.generation
+
+    def degrees(self, rows):
+        """(U from settlement, U from pressure) of history rows (t, Tv, s, mean p); NaN
+        without a load case."""
+        r = np.array(rows, dtype=float).reshape(-1, 4)
+        if not self.valid:
+            return np.full(len(r), np.nan), np.full(len(r), np.nan)
+        return (r[:, 2] - self.s0) / (self.s_inf - self.s0), 1 - r[:, 3] / self.p0
+
+    def report(self, Tv, row, ratio) -> dict:
+        """The degree of consolidation at report time Tv from the history row of its step
+        and both Terzaghi references (``ratio`` = c2 / c_v); errors in % of the reference."""
+        Us, Up = (float(u[0]) for u in self.degrees([row]))
+        ref = float(analytic.degree_of_consolidation(Tv))
+        con = float(analytic.degree_of_consolidation(Tv * ratio))
+        return {"Tv": Tv, "t": row[0], "settlement_m": row[2], "mean_p_pa": row[3],
+                "U_settlement": Us, "U_pressure": Up, "terzaghi": ref, "consistent": con,
+                "error_settlement_pct": 100 * (Us - ref) / ref,
+                "error_settlement_consistent_pct": 100 * (Us - con) / con,
+                "error_pressure_pct": 100 * (Up - ref) / ref,
+                "error_pressure_consistent_pct": 100 * (Up - con) / con}
+
+    def summary(self, reports) -> dict:
+        out = {"surface": f"fit of degree {self.order} in y0 to the top cell row's point "
+                          "displacements, at y = H",
+               "s0_m": self.s0 if self.valid else None,
+               "s_inf_m": self.s_inf if self.valid else None,
+               "p0_pa": self.p0 if self.valid else None}
+        for key in ("Tv", "t", "settlement_m", "mean_p_pa", "U_settlement", "U_pressure",
+                    "terzaghi", "consistent", "error_settlement_pct",
+                    "error_settlement_consistent_pct", "error_pressure_pct",
+                    "error_pressure_consistent_pct"):
+            out[key] = [r[key] for r in reports]
+        return out
+
+    def write_csv(self, folder, rows, ratio) -> str:
+        """settlement.csv: the history with both U and both Terzaghi references; rank 0,
+        rewritten whole at each report time and at the end."""
+        path = os.path.join(folder, "settlement.csv")
+        r = np.array(rows, dtype=float).reshape(-1, 4)
+        Us, Up = self.degrees(rows)
+        table = np.column_stack([r[:, 0], r[:, 1], r[:, 2], Us, Up,
+                                 analytic.degree_of_consolidation(r[:, 1]),
+                                 analytic.degree_of_consolidation(r[:, 1] * ratio)])
+        with output.atomic(path) as tmp:
+            np.savetxt(tmp, table, delimiter=",", comments="",
+                       header="t_s,Tv,settlement_m,U_settlement,U_pressure,U_terzaghi,"
+                              "U_consistent")
+        return path
+
+
+def _print_degree(comm, degree):
+    lines = ["Degree of consolidation U from the surface settlement and from the mean pore "
+             "pressure:",
+             f"{'T_v':>6s}{'s (mm)':>9s}{'U_s':>8s}{'U_p':>8s}{'Terzaghi':>10s}{'error':>9s}"
+             f"{'consistent':>12s}{'error':>9s}"]
+    for r in degree:
+        lines.append(f"{r['Tv']:6.2f}{1e3 * r['settlement_m']:9.4f}{r['U_settlement']:8.4f}"
+                     f"{r['U_pressure']:8.4f}{r['terzaghi']:10.4f}"
+                     f"{r['error_settlement_pct']:8.2f}%{r['consistent']:12.4f}"
+                     f"{r['error_settlement_consistent_pct']:8.2f}%")
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
 
 
 def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
@@ -523,23 +678,33 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
     return files
 
 
+def _settlement_files(p, surface, rows, ratio):
+    """settlement.csv and the figure of U against T_v from the history ``rows`` (t, Tv,
+    s, mean p); ``ratio`` = c2 / c_v; rank 0."""
+    files = {"settlement_csv": surface.write_csv(p.output, rows, ratio)}
+    if p.figures:
+        fig = figures.consolidation_degree(
+            output.pyplot(), np.array(rows, dtype=float).reshape(-1, 4)[:, 1],
+            *surface.degrees(rows), ratio, p.Tv_end,
+            f"Degree of consolidation, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
+        files.update(output.save_figures(fig, p.output, "settlement", p.figure_format))
+    return files
+
+
 def _figures(p, profiles, hist, ratio, p0, monitor_height):
-    """isochrones.png, pressure_field.png and monitor.png; ``ratio`` = c2 / c_v and ``p0`` =
-    p0 / q scale the compressible-water reference."""
+    """isochrones, pressure_field and monitor in the formats of -mpm_figure_format;
+    ``ratio`` = c2 / c_v and ``p0`` = p0 / q scale the compressible-water reference."""
     plt = output.pyplot()
-    files = {"isochrones_png": os.path.join(p.output, "isochrones.png"),
-             "pressure_field_png": os.path.join(p.output, "pressure_field.png"),
-             "monitor_png": os.path.join(p.output, "monitor.png")}
-    output.save_figure(_isochrone_figure(plt, p, profiles, ratio, p0),
-                       files["isochrones_png"])
+    files = output.save_figures(_isochrone_figure(plt, p, profiles, ratio, p0), p.output,
+                                "isochrones", p.figure_format)
     shown = [pr for pr in profiles if pr[0] in p.Tv_report] or profiles[-1:]
     fig = figures.pressure_field(
         plt, [(Tv, prof[:, 3], prof[:, 0], prof[:, 1]) for Tv, _, prof in shown],
         load_scale(p), f"Pore pressure field, {p.element.upper()}, {len(shown[0][2])} MPs",
         width=p.size[0])
-    output.save_figure(fig, files["pressure_field_png"])
-    output.save_figure(_monitor_figure(plt, p, hist, ratio, p0, monitor_height),
-                       files["monitor_png"])
+    files.update(output.save_figures(fig, p.output, "pressure_field", p.figure_format))
+    files.update(output.save_figures(_monitor_figure(plt, p, hist, ratio, p0, monitor_height),
+                                     p.output, "monitor", p.figure_format))
     return files
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from . import analytic, assembly, jacobi, memory, output
+from . import analytic, assembly, jacobi, memory, output, provenance
 from .errors import InputError, NumericalError
 from .grid import Grid
 from .points import place
@@ -244,6 +244,7 @@ def run(p, comm) -> dict:
     summary["references"] = refs
     _print_table(comm, freq, refs, summary.get("cross_check"))
 
+    summary["provenance"] = provenance.collect(comm, p)
     summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
                                       freq.get("jacobi", freq.get("slepc")), rod, summary)
     for obj in (K, M, Kg, Mg, free):
@@ -299,16 +300,20 @@ def _write_results(p, grid, free, vectors, freqs, rod, summary):
         modes[k] = u * np.sign(u[big, comp] or 1.0)
     files["modes_vtu"] = os.path.join(p.output, "modes.vtu")
     data = {f"mode_{k + 1}": np.column_stack([u, np.zeros(len(u))]) for k, u in enumerate(modes)}
-    output.write_vtu(files["modes_vtu"], coords, [output.grid_cells(grid)], point_data=data)
+    # Each mode's frequency travels with its shape: field data frequency_hz[k] is mode_{k+1}'s
+    # (Hz, of the solver whose shapes these are: Jacobi's when it ran, else SLEPc's).
+    output.write_vtu(files["modes_vtu"], coords, [output.grid_cells(grid)], point_data=data,
+                     field_data={"frequency_hz": np.asarray(freqs[:len(modes)], dtype=float)})
     if p.figures:
-        files["modes_png"] = os.path.join(p.output, "modes.png")
-        mode_figure(files["modes_png"], grid, coords, modes, freqs, rod, p.size[1])
+        fig = mode_figure(grid, coords, modes, freqs, rod, p.size[1])
+        files.update(output.save_figures(fig, p.output, "modes", p.figure_format))
     output.write_json(summary_path, dict(summary, files=files))
     return files
 
 
-def mode_figure(path, grid, coords, modes, freqs, rod, H):
-    """Mode shapes like the paper's Figure 2: deformed grids and u_y along the column."""
+def mode_figure(grid, coords, modes, freqs, rod, H):
+    """Mode shapes like the paper's Figure 2: deformed grids and u_y along the column; the
+    caller saves the figure."""
     plt = output.pyplot()
     nm = len(modes)
     fig, axes = plt.subplots(2, nm, figsize=(2.2 * nm, 7), squeeze=False,
@@ -346,4 +351,4 @@ def mode_figure(path, grid, coords, modes, freqs, rod, H):
         ax.legend(fontsize=6, loc="lower left")
         ax.tick_params(labelsize=7)
     fig.suptitle(f"Mode shapes, {grid.element.upper()} background grid")
-    output.save_figure(fig, path)
+    return fig

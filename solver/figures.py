@@ -78,3 +78,31 @@ def pressure_field(plt, snapshots, q: float, title: str, width: float = None):
     fig.colorbar(sc, ax=list(axes[0]), label="excess pore pressure (kPa)")
     fig.suptitle(title)
     return fig
+
+
+def consolidation_degree(plt, Tv, U_settlement, U_pressure, ratio: float, Tv_end: float,
+                         title: str):
+    """The degree of consolidation U (-) against the time factor T_v (-, log axis): classic
+    Terzaghi (solid), compressible water (dotted, T_v scaled by ``ratio`` = c2 / c_v), and
+    the run's U from the surface settlement and from the mean pore pressure, each an array
+    at the times ``Tv``. Drawn up to ``Tv_end``."""
+    Tv = np.asarray(Tv, dtype=float)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    start = min(1e-4, Tv[Tv > 0].min()) if np.any(Tv > 0) else 1e-4
+    T = np.geomspace(start, max(Tv_end, start * 10), 400)
+    ax.plot(T, analytic.degree_of_consolidation(T), color="k", label="Terzaghi, classic",
+            **CLASSIC)
+    ax.plot(T, analytic.degree_of_consolidation(T * ratio), color="k",
+            label="Terzaghi, compressible water", **COMPRESSIBLE)
+    ax.plot(Tv, U_settlement, color="tab:blue", lw=1.0,
+            label="MPM, from the surface settlement")
+    ax.plot(Tv, U_pressure, color="tab:orange", lw=1.0, ls="--",
+            label="MPM, from the mean pore pressure")
+    ax.set_xscale("log")
+    ax.set_xlim(T[0], T[-1])
+    ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
+    ax.set_ylabel("degree of consolidation U (-)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="upper left")
+    return fig

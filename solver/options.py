@@ -73,6 +73,16 @@ def _scaling(v):
     return None if S > 0 else "must be none, auto or > 0"
 
 
+def _figure_formats(v):
+    from .output import figure_formats
+
+    try:
+        figure_formats(v)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 def _tolerance(v):
     return None if 0 < v < 1 else "must lie in (0, 1)"
 
@@ -142,8 +152,8 @@ SPEC = [
            (CONSOLIDATION,), _all_positive),
     Option("monitor_height", "float", float("nan"), "height of the monitor point (m); "
            "default: the highest material point below mid-height", (CONSOLIDATION,)),
-    Option("output_every", "int", 0, "write point fields every N steps (0: at report times)",
-           (CONSOLIDATION,), _nonnegative),
+    Option("output_every", "int", 0, "write point fields every N steps and at the report "
+           "times (0: at the report times only)", (CONSOLIDATION,), _nonnegative),
     Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "
            "accelerations, 0 for none (it opposes the settlement too: docs/studies.md)",
            (CONSOLIDATION,),
@@ -191,7 +201,9 @@ SPEC = [
            (CONSOLIDATION,), _nonnegative),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
-    Option("figures", "bool", True, "write PNG figures"),
+    Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),
+    Option("figure_format", "str", "png", "formats of the figures, comma-separated: png, pdf, "
+           "svg (e.g. png,pdf)", check=_figure_formats),
     Option("debug", "bool", False, "show the Python traceback of a failure"),
 ]
 

@@ -1,5 +1,5 @@
-"""Results on disk: JSON summaries, VTU fields (meshio) and figures (PNG, PDF, SVG), written
-whole.
+"""Results on disk: JSON summaries, VTU fields (meshio), XDMF + HDF5 time series of point
+fields and figures (PNG, PDF, SVG), written whole.
 
 Every file is written to a temporary name in the same folder and renamed into place, so a job
 killed mid-write leaves the previous version or nothing, never a truncated file. Only rank 0
@@ -84,14 +84,113 @@ def grid_cells(grid):
     return kind, conn[:, cols]
 
 
-def write_vtu(path, points, cells, point_data=None, cell_data=None):
-    """An unstructured-grid VTU file (ParaView) from 2D points (N, 2) and meshio cell blocks."""
+def write_vtu(path, points, cells, point_data=None, cell_data=None, field_data=None):
+    """An unstructured-grid VTU file (ParaView) from 2D points (N, 2) and meshio cell blocks;
+    ``field_data``: arrays that belong to the whole data set (ParaView's Field Data)."""
     import meshio
 
     xyz = np.column_stack([points, np.zeros(len(points))])
-    mesh = meshio.Mesh(xyz, cells, point_data=point_data or {}, cell_data=cell_data or {})
+    mesh = meshio.Mesh(xyz, cells, point_data=point_data or {}, cell_data=cell_data or {},
+                       field_data=field_data or {})
     with atomic(path) as tmp:
         meshio.write(tmp, mesh, file_format="vtu")
+        if field_data:
+            _add_field_data(tmp, field_data)
+
+
+def _add_field_data(path, field_data):
+    """Add a FieldData block to the VTU file ``path`` unless meshio wrote one (meshio 5.0's
+    VTU writer drops field data): ASCII arrays, every digit of a double."""
+    with open(path) as fh:
+        text = fh.read()
+    if "<FieldData" in text:
+        return
+    arrays = []
+    for name, value in field_data.items():
+        value = np.asarray(value, dtype=float).reshape(-1)
+        arrays.append(f'<DataArray type="Float64" Name="{name}" NumberOfTuples="{len(value)}" '
+                      'format="ascii">' + " ".join(f"{v:.17g}" for v in value)
+                      + "</DataArray>")
+    block = "<FieldData>\n" + "\n".join(arrays) + "\n</FieldData>\n"
+    head, tag, rest = text.partition("<UnstructuredGrid>")
+    if not tag:
+        raise ValueError(f"{path}: no <UnstructuredGrid> element to hold field data")
+    with open(path, "w") as fh:
+        fh.write(head + tag + "\n" + block + rest.lstrip("\n"))
+
+
+class XdmfSeries:
+    """Point fields as an XDMF 3 time series with HDF5 data: ParaView opens the .xdmf
+    directly (its XDMF readers), meshio reads it (``meshio.xdmf.TimeSeriesReader``).
+
+    A killed job loses nothing already written: each time step's data go to their own HDF5
+    file (``<stem>_<step>.h5``, written whole), and the .xdmf index, which lists every step
+    written so far, is rewritten whole after each one. meshio's ``TimeSeriesWriter`` is not
+    used because it writes its index only when closed and keeps one HDF5 file open
+    throughout (meshio 5.0 also puts that file in the working directory): a killed job would
+    keep no index, and possibly a damaged HDF5 file. The layout otherwise is meshio's.
+
+    Every step carries its points' current positions (m, z = 0) as its geometry and one
+    VTK vertex cell per point (XDMF Polyvertex); each field is an Attribute on the points:
+    (N,) arrays are scalars, (N, 3) vectors. Only rank 0 writes; callers gather.
+    """
+
+    def __init__(self, path, entries=()):
+        self.path = path
+        self.folder = os.path.dirname(os.path.abspath(path))
+        self.stem = os.path.splitext(os.path.basename(path))[0]
+        # (t (s), HDF5 file name, number of points, [[field, components], ...]) per step:
+        # plain lists, so a checkpoint stores them as JSON and a restart rebuilds the index.
+        self.entries = [list(e) for e in entries]
+
+    def write(self, step: int, t: float, xy, fields: dict):
+        """Add step ``step`` at time ``t`` (s): points ``xy`` (N, 2) in m and ``fields``
+        {name: (N,) or (N, c) array}; then rewrite the index."""
+        import h5py
+
+        n = len(xy)
+        name = f"{self.stem}_{step:07d}.h5"
+        with atomic(os.path.join(self.folder, name)) as tmp:
+            with h5py.File(tmp, "w") as h5:
+                h5["geometry"] = np.column_stack([xy, np.zeros(n)])
+                h5["topology"] = np.arange(n, dtype=np.int64).reshape(-1, 1)
+                for key, value in fields.items():
+                    h5[key] = np.asarray(value, dtype=float)
+        layout = [[key, int(np.prod(np.shape(value)[1:]))] for key, value in fields.items()]
+        self.entries = [e for e in self.entries if e[1] != name] + [[t, name, n, layout]]
+        write_text(self.path, self.index())
+
+    def index(self) -> str:
+        """The .xdmf text: a temporal collection of one grid per entry."""
+        import xml.etree.ElementTree as ET
+
+        root = ET.Element("Xdmf", Version="3.0")
+        series = ET.SubElement(ET.SubElement(root, "Domain"), "Grid", Name=self.stem,
+                               GridType="Collection", CollectionType="Temporal")
+        for t, name, n, layout in self.entries:
+            grid = ET.SubElement(series, "Grid", Name=os.path.splitext(name)[0],
+                                 GridType="Uniform")
+            ET.SubElement(grid, "Time", Value=repr(float(t)))
+            topo = ET.SubElement(grid, "Topology", TopologyType="Polyvertex",
+                                 NumberOfElements=str(n), NodesPerElement="1")
+            _data_item(topo, f"{name}:/topology", (n, 1), "Int")
+            _data_item(ET.SubElement(grid, "Geometry", GeometryType="XYZ"),
+                       f"{name}:/geometry", (n, 3))
+            for key, comps in layout:
+                att = ET.SubElement(grid, "Attribute", Name=key, Center="Node",
+                                    AttributeType="Scalar" if comps == 1 else "Vector")
+                _data_item(att, f"{name}:/{key}", (n,) if comps == 1 else (n, comps))
+        ET.indent(root)
+        return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode")
+
+
+def _data_item(parent, where: str, shape, kind="Float"):
+    """An HDF5 DataItem (8-byte numbers) of ``shape`` at ``where`` (file:/dataset)."""
+    import xml.etree.ElementTree as ET
+
+    item = ET.SubElement(parent, "DataItem", DataType=kind, Precision="8", Format="HDF",
+                         Dimensions=" ".join(map(str, shape)))
+    item.text = where
 
 
 # Formats save_figure writes: PNG for the reports and the docs, PDF and SVG (vector) for
@@ -136,6 +235,13 @@ def save_figure(fig, path, dpi=150, formats=("png",)):
     finally:
         plt.close(fig)
     return written
+
+
+def save_figures(fig, folder, name, formats=("png",)) -> dict:
+    """Save ``fig`` as ``folder/name.<format>`` for each of ``formats`` (see save_figure);
+    return the files written as {"<name>_<format>": path}, the keys of summary["files"]."""
+    paths = save_figure(fig, os.path.join(folder, name + ".png"), formats=formats)
+    return {f"{name}_{os.path.splitext(f)[1][1:]}": f for f in paths}
 
 
 _NO_DATE = {"pdf": {"CreationDate": None}, "svg": {"Date": None}}
