@@ -64,6 +64,18 @@ def impermeable(drained) -> dict:
 MAX_STATE = 4000   # dense stability analysis up to this many unknowns, else on a patch
 
 
+def analysis_cells(p) -> tuple:
+    """The cells (NX, NY) and their extent (W, H in m) that :func:`discrete_limit` analyses:
+    the whole grid, or a patch of at most 4 x 10 cells of the same size when the grid has
+    more than ``MAX_STATE`` unknowns."""
+    cells, size = tuple(p.cells), tuple(p.size)
+    p_order = {"q4": 1, "q8": 2, "q9": 2}[p.element]
+    if 8 * (p_order * cells[0] + 1) * (p_order * cells[1] + 1) > MAX_STATE:
+        cells = (min(cells[0], 4), min(cells[1], 10))
+        size = (p.size[0] * cells[0] / p.cells[0], p.size[1] * cells[1] / p.cells[1])
+    return cells, size
+
+
 def discrete_limit(comm, p, scheme) -> tuple:
     """The stability limit (s) of the explicit step itself, and the cells it was found on.
 
@@ -84,12 +96,7 @@ def discrete_limit(comm, p, scheme) -> tuple:
     from .grid import Grid
     from .points import place
 
-    cells = tuple(p.cells)
-    size = tuple(p.size)
-    p_order = {"q4": 1, "q8": 2, "q9": 2}[p.element]
-    if 8 * (p_order * cells[0] + 1) * (p_order * cells[1] + 1) > MAX_STATE:
-        cells = (min(cells[0], 4), min(cells[1], 10))
-        size = (p.size[0] * cells[0] / p.cells[0], p.size[1] * cells[1] / p.cells[1])
+    cells, size = analysis_cells(p)
     limit = None
     if comm.getRank() == 0:
         grid = Grid(PETSc.COMM_SELF, p.element, cells, size)
