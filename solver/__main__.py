@@ -60,6 +60,7 @@ def main(argv=None) -> int:
                 origins.update(scan_file(path))
             except InputError as exc:
                 return _fail(str(exc), 2, _rank())
+    scene_analysis = _value_at(origins["analysis"]) if "analysis" in origins else None
     for arg in argv:                # the command line overrides the files
         if arg.startswith("-mpm_"):
             origins.pop(arg[5:], None)
@@ -89,7 +90,7 @@ def main(argv=None) -> int:
         PETSc.Sys.pushErrorHandler("ignore")
     try:
         params = options.read(origins=origins)
-        for note in params.notes:
+        for note in params.notes + _own_folder(params, scene_analysis):
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
         check_output(params, comm)
         if params.analysis == "eigen":
@@ -126,6 +127,26 @@ def main(argv=None) -> int:
     finally:
         _release_stdout()
     return 0
+
+
+def _value_at(where: str) -> str:
+    """The value on line ``FILE:LINE`` of a scene file (checked by scan_file already)."""
+    path, number = where.rsplit(":", 1)
+    with open(path, encoding="utf-8") as fh:
+        line = fh.read().splitlines()[int(number) - 1]
+    tokens = line.split("#", 1)[0].split()
+    return tokens[1] if len(tokens) > 1 else ""
+
+
+def _own_folder(p, scene_analysis) -> tuple:
+    """A scene of one analysis run as the other (``-mpm_analysis`` on the command line)
+    writes into a sub-folder of the scene's ``-mpm_output``, named after the analysis, so
+    that it leaves the scene's own summary alone; returns the note that says so."""
+    if scene_analysis in (None, p.analysis) or "output" not in p.from_file:
+        return ()
+    p.output = os.path.join(p.output, p.analysis)
+    return (f"a {scene_analysis} scene run as -mpm_analysis {p.analysis}: results in "
+            f"{p.output}",)
 
 
 def check_output(p, comm) -> None:
