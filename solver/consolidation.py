@@ -104,7 +104,7 @@ def run(p, comm) -> int:
     failure = None
     try:
         code = _run(p, comm, ctx)
-    except (InputError, NumericalError, Interrupted):
+    except (InputError, NumericalError, Interrupted, PETSc.Error):
         raise                  # every rank raises these alike, where they arise
     except Exception as exc:   # noqa: BLE001  (what the solver did not foresee)
         failure = exc

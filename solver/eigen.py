@@ -175,6 +175,9 @@ def run(p, comm) -> dict:
     except NumericalError as exc:      # every rank raises it alike
         _write_failure(p, comm, ctx, entry(str(exc), exc.exit_code))
         raise
+    except PETSc.Error as exc:         # a solver of PETSc or SLEPc failed: numerical too
+        _write_failure(p, comm, ctx, entry(f"PETSc error {exc.ierr}: {exc}", 3))
+        raise
     except Exception as exc:   # noqa: BLE001  (what the solver did not foresee)
         failure = exc
     if ctx["phase"] == "writing" or comm.getSize() == 1:
