@@ -96,7 +96,8 @@ def run(p, comm) -> int:
     A run that fails after its set-up still writes its summary (``"completed": false`` and
     the ``error``): NumericalError (a blow-up) and Interrupted (a signal, after a
     checkpoint) as they arise; any other exception (a bug, or the machine: memory, disk)
-    becomes an InternalError, with a checkpoint when the points hold a whole step. Ranks
+    becomes an InternalError, with a checkpoint when the points and their records (reports,
+    fields) agree at a step, i.e. after a failure in the reporting that follows it. Ranks
     agree on a failure in the reporting after the last step (where rank 0 writes alone),
     and on one rank; a failure inside the stepping of a parallel run on some ranks only
     leaves the others in a collective, and reaches the caller as it is (to abort MPI)."""
@@ -127,7 +128,7 @@ class _Failure:
         self.save = None             # save(step) writes a checkpoint (collective)
         self.ckpt_path = ""
         self.start = None            # the step the run started from (0, or a restart's)
-        self.whole = None            # the last step the points hold whole; None mid-step
+        self.whole = None            # the last step whose points and records all agree
         self.t_wall = time.perf_counter()
         self.cleanup = []            # calls that undo the run's settings (signals, FP)
 
