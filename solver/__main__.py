@@ -1,14 +1,32 @@
 """Command line: ``mpirun -n N python -m solver -options_file cases/<scene>.opts [options]``.
 
-Exit codes: 0 success, 2 bad input, 3 numerical failure, 4 stopped by SIGTERM/SIGINT
-after writing a checkpoint. Failures print one line on stderr
-(rank 0); ``-mpm_debug`` adds the Python traceback.
+Exit codes:
+
+- 0 success;
+- 2 bad input: an option, a scene file, an output folder that cannot be written (nothing
+  computed, nothing written);
+- 3 numerical failure (Jacobi or SLEPc not converged, a mass that is not positive definite,
+  a blown-up run): the summary says what was computed and where it failed;
+- 4 stopped by SIGTERM/SIGINT after writing a checkpoint and the summary;
+- 5 internal error: an exception the solver did not foresee (a bug, or the machine out of
+  memory or disk). The summary is still written (``"completed": false``, the ``error``),
+  with a checkpoint when the points held a whole step. In a parallel run a failure that
+  only some ranks meet inside the stepping aborts MPI (the others wait in a collective).
+
+Failures print one line on stderr (rank 0; the failing rank for an unshared internal
+error); ``-mpm_debug`` adds the Python traceback. Options a scene file sets that the chosen
+analysis does not use, and its report times after ``-mpm_Tv_end``, are dropped with a note;
+given on the command line they are errors. A reader of stdout that goes away (``| head``)
+does not stop the run.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import tempfile
+import traceback
 
 
 def _options_files(argv):
@@ -42,6 +60,7 @@ def main(argv=None) -> int:
                 origins.update(scan_file(path))
             except InputError as exc:
                 return _fail(str(exc), 2, _rank())
+    scene_analysis = _value_at(origins["analysis"]) if "analysis" in origins else None
     for arg in argv:                # the command line overrides the files
         if arg.startswith("-mpm_"):
             origins.pop(arg[5:], None)
@@ -53,10 +72,12 @@ def main(argv=None) -> int:
 
     slepc4py.init(argv)
     from petsc4py import PETSc
+    from slepc4py import SLEPc  # noqa: F401  (initialised here, before the signals are set)
 
     from . import options
-    from .errors import InputError, Interrupted, NumericalError
+    from .errors import InputError, InternalError, Interrupted, NumericalError, describe
 
+    _survive_closed_stdout()
     comm = PETSc.COMM_WORLD
     if "-help" in argv or "-h" in argv:
         PETSc.Sys.Print("Options of the MPM solver (SI units):\n" + options.table(), comm=comm)
@@ -68,7 +89,10 @@ def main(argv=None) -> int:
         # multi-line dump would only repeat them.
         PETSc.Sys.pushErrorHandler("ignore")
     try:
-        params = options.read()
+        params = options.read(origins=origins)
+        for note in params.notes + _own_folder(params, scene_analysis):
+            PETSc.Sys.Print(f"Note: {note}", comm=comm)
+        check_output(params, comm)
         if params.analysis == "eigen":
             from . import eigen
 
@@ -79,9 +103,9 @@ def main(argv=None) -> int:
             code = consolidation.run(params, comm)
             if code:
                 return code
-    except (InputError, NumericalError, Interrupted) as exc:
+    except (InputError, NumericalError, Interrupted, InternalError) as exc:
         if debug:
-            raise
+            traceback.print_exc()
         message = str(exc)
         if isinstance(exc, InputError):
             name = message.split(":")[0].split(" ")[0]
@@ -92,13 +116,121 @@ def main(argv=None) -> int:
         if debug:
             raise
         return _fail(f"PETSc error {exc.ierr}: {exc}", 3, comm.getRank())
+    except Exception as exc:   # noqa: BLE001  (a failure this rank alone may know of)
+        if debug:
+            traceback.print_exc()
+        if comm.getSize() == 1:
+            return _fail(f"internal error: {describe(exc)}", 5)
+        # The other ranks may wait in a collective that this one will never join.
+        _fail(f"internal error on rank {comm.getRank()}: {describe(exc)}; aborting MPI", 5)
+        comm.tompi4py().Abort(5)
+    finally:
+        _release_stdout()
     return 0
 
 
+def _value_at(where: str) -> str:
+    """The value on line ``FILE:LINE`` of a scene file (checked by scan_file already)."""
+    path, number = where.rsplit(":", 1)
+    with open(path, encoding="utf-8") as fh:
+        line = fh.read().splitlines()[int(number) - 1]
+    tokens = line.split("#", 1)[0].split()
+    return tokens[1] if len(tokens) > 1 else ""
+
+
+def _own_folder(p, scene_analysis) -> tuple:
+    """A scene of one analysis run as the other (``-mpm_analysis`` on the command line)
+    writes into a sub-folder of the scene's ``-mpm_output``, named after the analysis, so
+    that it leaves the scene's own summary alone; returns the note that says so."""
+    if scene_analysis in (None, p.analysis) or "output" not in p.from_file:
+        return ()
+    p.output = os.path.join(p.output, p.analysis)
+    return (f"a {scene_analysis} scene run as -mpm_analysis {p.analysis}: results in "
+            f"{p.output}",)
+
+
+def check_output(p, comm) -> None:
+    """InputError on every rank, before anything is computed, when the results cannot be
+    written where ``-mpm_output`` and ``-mpm_summary`` send them. Rank 0, the one that
+    writes, tries and tells the others."""
+    problem = None
+    if comm.getRank() == 0:
+        problem = _unwritable(p.output, "-mpm_output")
+        if problem is None and p.summary:
+            if os.path.isdir(p.summary):
+                problem = f"-mpm_summary {p.summary}: a folder, not a file name"
+            else:
+                problem = _unwritable(os.path.dirname(p.summary) or ".", "-mpm_summary",
+                                      p.summary)
+    problem = comm.tompi4py().bcast(problem, root=0)
+    if problem:
+        from .errors import InputError
+
+        raise InputError(problem)
+
+
+def _unwritable(folder: str, flag: str, given: str = None):
+    """Why ``folder`` cannot take result files, or None. Missing folders are made, a
+    temporary file is created and removed in it, then the folders made are removed again:
+    a run refused later for another reason leaves nothing behind."""
+    given = given or folder
+    path = os.path.abspath(folder)
+    missing = []
+    while not os.path.lexists(path):
+        missing.append(path)
+        path = os.path.dirname(path)
+    if not os.path.isdir(path):
+        what = "exists and is not a folder" if not missing else f"{path} is not a folder"
+        return f"{flag} {given}: {what}"
+    made = []
+    try:
+        for d in reversed(missing):
+            os.mkdir(d)
+            made.append(d)
+        fd, tmp = tempfile.mkstemp(prefix=".probe-", dir=os.path.abspath(folder))
+        os.close(fd)
+        os.remove(tmp)
+    except OSError as exc:
+        where = missing[len(made)] if len(made) < len(missing) else os.path.abspath(folder)
+        verb = "create the folder" if len(made) < len(missing) else "write in"
+        return f"{flag} {given}: cannot {verb} {where} ({exc.strerror})"
+    finally:
+        for d in reversed(made):
+            try:
+                os.rmdir(d)
+            except OSError:
+                pass
+    return None
+
+
+def _survive_closed_stdout() -> None:
+    """A reader of stdout that goes away (``| head``) must not stop the run. PETSc catches
+    SIGPIPE and aborts MPI; with the signal ignored a write to the closed pipe fails with
+    EPIPE, which PETSc's printing passes over, and the run goes on to write its results."""
+    if hasattr(signal, "SIGPIPE"):
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+
+
+def _release_stdout() -> None:
+    """Flush Python's stdout; on a closed pipe point it at /dev/null, so that the flush at
+    exit does not fail again (which would turn the exit code into 120)."""
+    try:
+        sys.stdout.flush()
+    except (BrokenPipeError, ValueError):
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+
+
 def _fail(message: str, code: int, rank: int = 0) -> int:
+    """Print ``message`` as the one error line (on rank 0) and return ``code``."""
     if rank == 0:
-        sys.stderr.write(f"solver: error: {message}\n")
-        sys.stderr.flush()
+        try:
+            sys.stderr.write(f"solver: error: {message}\n")
+            sys.stderr.flush()
+        except (OSError, ValueError):      # stderr closed too: the exit code still tells
+            pass
     return code
 
 

@@ -26,7 +26,8 @@ VERSION = 2    # 2: reference positions x0 (2 components) in place of y0
 
 def signature(p) -> str:
     """The options that define the physics, as canonical JSON."""
-    items = {k: v for k, v in vars(p).items() if k not in FREE_OPTIONS and k != "given"}
+    items = {k: v for k, v in vars(p).items()
+             if k not in FREE_OPTIONS and k not in ("given", "from_file", "notes")}
     return json.dumps(items, sort_keys=True, default=str)
 
 

@@ -21,7 +21,8 @@ from petsc4py import PETSc
 
 from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
                output, provenance, timestep, workprecision)
-from .errors import InputError, Interrupted, NumericalError
+from .errors import (InputError, InternalError, Interrupted, NumericalError, agree, describe,
+                     entry)
 from .grid import Grid
 from .points import place
 from .twophase import TwoPhase, point_fields
@@ -30,20 +31,31 @@ MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
 
 
-def _validate(p):
+def _validate(p) -> list:
+    """InputError for options that contradict each other; returns the notes to print."""
     H = p.size[1]
+    notes = []
     if not math.isnan(p.monitor_height) and not 0 <= p.monitor_height <= H:
         raise InputError(f"-mpm_monitor_height {p.monitor_height}: outside the body "
                          f"(0 to {H} m)")
     late = [t for t in p.Tv_report if t > p.Tv_end * (1 + 1e-12)]
-    if late:
+    if late and "Tv_report" in p.given and "Tv_report" not in p.from_file:
         raise InputError(f"-mpm_Tv_report {late[0]}: after -mpm_Tv_end {p.Tv_end}")
+    if late:
+        # Report times of a scene file (or the defaults) after a shorter end: shortening a
+        # run takes one option, -mpm_Tv_end.
+        where = p.from_file.get("Tv_report", "the default")
+        p.Tv_report = tuple(t for t in p.Tv_report if t not in late) or (p.Tv_end,)
+        notes.append(f"-mpm_Tv_report ({where}): "
+                     + ",".join(f"{t:g}" for t in late) + f" after -mpm_Tv_end {p.Tv_end:g} "
+                     f"dropped; reporting at T_v = {','.join(f'{t:g}' for t in p.Tv_report)}")
     if p.load == 0 and p.gravity == 0:
         raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
+    return notes
 
 
 def load_scale(p) -> float:
@@ -79,9 +91,88 @@ def fundamental_frequency(comm, p) -> float:
 
 
 def run(p, comm) -> int:
-    """Run the consolidation scene ``p``; returns 0, or raises NumericalError after writing
-    the summary of a run that blew up."""
-    _validate(p)
+    """Run the consolidation scene ``p``; returns 0.
+
+    A run that fails after its set-up still writes its summary (``"completed": false`` and
+    the ``error``): NumericalError (a blow-up) and Interrupted (a signal, after a
+    checkpoint) as they arise; any other exception (a bug, or the machine: memory, disk)
+    becomes an InternalError, with a checkpoint when the points and their records (reports,
+    fields) agree at a step, i.e. after a failure in the reporting that follows it. Ranks
+    agree on a failure in the reporting after the last step (where rank 0 writes alone),
+    and on one rank; a failure inside the stepping of a parallel run on some ranks only
+    leaves the others in a collective, and reaches the caller as it is (to abort MPI)."""
+    ctx = _Failure(comm)
+    failure = None
+    try:
+        code = _run(p, comm, ctx)
+    except (InputError, NumericalError, Interrupted, PETSc.Error):
+        raise                  # every rank raises these alike, where they arise
+    except Exception as exc:   # noqa: BLE001  (what the solver did not foresee)
+        failure = exc
+    if ctx.phase == "reporting" or comm.getSize() == 1:
+        message = agree(comm, failure)       # every rank gets here, failed or not
+        if message is None:
+            return code
+        raise ctx.record(comm, message) from failure
+    ctx.record(comm, None, failure)
+    raise failure
+
+
+class _Failure:
+    """What the failure handler of :func:`run` needs, set as the run gets there."""
+
+    def __init__(self, comm):
+        self.phase = "set-up"        # then "stepping", "reporting"
+        self.summary = None          # the summary so far, and where it goes
+        self.summary_path = ""
+        self.save = None             # save(step) writes a checkpoint (collective)
+        self.ckpt_path = ""
+        self.start = None            # the step the run started from (0, or a restart's)
+        self.whole = None            # the last step whose points and records all agree
+        self.t_wall = time.perf_counter()
+        self.cleanup = []            # calls that undo the run's settings (signals, FP)
+
+    def record(self, comm, message, exc=None):
+        """Write what a failed run can (a checkpoint when the state is whole and every rank
+        takes part, the summary on rank 0); return the InternalError of ``message``."""
+        for undo in self.cleanup:
+            undo()
+        said = []
+        ckpt = None
+        if message is not None and self.whole is not None and self.whole > self.start:
+            try:
+                self.save(self.whole)
+                ckpt = self.ckpt_path
+                said.append(f"checkpoint {ckpt} at step {self.whole} (continue with "
+                            f"-mpm_restart {ckpt})")
+            except Exception as err:   # noqa: BLE001  (the disk may be what failed)
+                said.append(f"no checkpoint ({describe(err)})")
+        if comm.getRank() == 0 and self.summary_path:
+            summary = dict(self.summary or {"analysis": "consolidation"})
+            error = entry(f"internal error: {message or describe(exc)}", 5)
+            files = {"summary": self.summary_path}
+            if ckpt:
+                files["checkpoint"] = ckpt
+            summary.update(completed=False, error=error, files=files,
+                           wall_seconds=time.perf_counter() - self.t_wall)
+            if self.whole is not None:
+                summary["steps"] = self.whole
+            try:
+                output.write_json(self.summary_path, summary)
+                said.append(f"summary {self.summary_path}")
+            except Exception as err:   # noqa: BLE001
+                said.append(f"no summary ({describe(err)})")
+        if message is None:
+            return None
+        return InternalError(f"internal error: {message}"
+                             + (f"; {', '.join(said)}" if said else ""))
+
+
+def _run(p, comm, ctx) -> int:
+    """The run itself (see :func:`run`); ``ctx`` follows it for the failure handler."""
+    ctx.summary_path = p.summary or os.path.join(p.output, "summary.json")
+    for note in _validate(p):
+        PETSc.Sys.Print(f"Note: {note}", comm=comm)
     goal = None
     if not math.isnan(p.target_error):
         choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
@@ -140,7 +231,14 @@ def run(p, comm) -> int:
                         f"{exc}", comm=comm)
         f1 = math.nan
     if p.stability_analysis:
+        # A dense eigenvalue analysis: on large grids the longest part of the set-up.
+        cells = timestep.analysis_cells(p)
+        PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} cells ...",
+                        comm=comm)
+        t_analysis = time.perf_counter()
         dt_discrete, patch = timestep.discrete_limit(comm, p, scheme)
+        PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f} s",
+                        comm=comm)
     else:
         dt_discrete, patch = math.nan, p.cells
     limits = timestep.criteria(p, f1, dt_discrete, grid.h, S)
@@ -240,6 +338,7 @@ def run(p, comm) -> int:
     if goal is not None:
         summary["target"] = goal
     summary_path = p.summary or os.path.join(p.output, "summary.json")
+    ctx.summary = summary
     stage = PETSc.Log.Stage("Explicit steps")
     stage.push()
     last_print = time.perf_counter()
@@ -251,10 +350,19 @@ def run(p, comm) -> int:
                 "reports": reports, "profiles": profiles, "series": series.entries,
                 "settlement": settlement, "degree": degree}
 
+    # After a failure a checkpoint holds the last step whose points, reports and fields are
+    # all written: in practice a failure in the reporting after the last step.
+    ctx.save = lambda step: checkpoint.write(ckpt_path, comm, points, state(step), p)
+    ctx.ckpt_path, ctx.start, ctx.whole = ckpt_path, first - 1, first - 1
+    ctx.cleanup = [stage.pop, stop.restore, lambda: np.seterr(**fp)]
+    ctx.phase = "stepping"
+    # The estimate of the time left counts the steps only, not the set-up before them.
+    t_steps = time.perf_counter()
     try:
         for k in range(first, nsteps + 1):
             t = k * dt
             ramp = 1.0 if p.load_ramp <= 0 else min(1.0, (k - 1) * dt / p.load_ramp)
+            ctx.whole = None             # mid-step: points and records disagree until the end
             model.step(dt, ramp, p.damping, p.flip)
             due = int(p.checkpoint_seconds > 0 and comm.getRank() == 0
                       and time.perf_counter() - last_ckpt > p.checkpoint_seconds)
@@ -286,28 +394,32 @@ def run(p, comm) -> int:
                                   f"-mpm_restart {ckpt_path}")
             if p.progress and time.perf_counter() - last_print > p.progress:
                 last_print = time.perf_counter()
-                el = last_print - t_wall
+                stepping = last_print - t_steps
                 PETSc.Sys.Print(f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), t = {t:.4g} s, "
                                 f"T_v = {cv * t / H ** 2:.4f}, p/q(monitor) = "
                                 f"{history[-1][2] if history else float('nan'):.4f}, "
-                                f"{el:.0f} s elapsed, about "
-                                f"{el / (k - first + 1) * (nsteps - k):.0f} s left",
+                                f"{last_print - t_wall:.0f} s elapsed, about "
+                                f"{stepping / (k - first + 1) * (nsteps - k):.0f} s left",
                                 comm=comm)
+            ctx.whole = k
     except (NumericalError, Interrupted) as exc:
         stage.pop()
         stop.restore()
         np.seterr(**fp)
         blew_up = isinstance(exc, NumericalError)
         summary.update(stable=not blew_up, interrupted=not blew_up, steps=k,
-                       failure=str(exc), wall_seconds=time.perf_counter() - t_wall)
+                       failure=str(exc), wall_seconds=time.perf_counter() - t_wall,
+                       completed=False, error=entry(str(exc), exc.exit_code))
         if comm.getRank() == 0:
             output.write_json(summary_path, dict(summary, files={"summary": summary_path}))
         raise
     stage.pop()
     stop.restore()
     np.seterr(**fp)
+    ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
 
     summary["steps"] = nsteps
+    summary["completed"] = True
     summary["wall_seconds"] = time.perf_counter() - t_wall
     summary["monitor"] = {"height": monitor_height,
                           "Tv": [r["Tv"] for r in reports],

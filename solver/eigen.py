@@ -16,7 +16,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from . import analytic, assembly, jacobi, memory, output, provenance
-from .errors import InputError, NumericalError
+from .errors import InputError, InternalError, NumericalError, agree, describe, entry
 from .grid import Grid
 from .points import place
 
@@ -158,7 +158,57 @@ def is_paper_scene(p) -> bool:
 
 
 def run(p, comm) -> dict:
-    """The eigen analysis of scene ``p``: solve, compare, print, write; returns the summary."""
+    """The eigen analysis of scene ``p``: solve, compare, print, write; returns the summary.
+
+    A failure after the assembly still writes the summary, with what was computed so far,
+    ``"completed": false`` and the ``error``: a NumericalError (solver not converged, a mass
+    that is not positive definite) as it is, any other exception as an InternalError once
+    the ranks agree on it (always on one rank; in parallel while the results are written,
+    where rank 0 works alone). A failure elsewhere on some ranks of a parallel run reaches
+    the caller as it is (to abort MPI: the others wait in a collective)."""
+    ctx = {"phase": "analysis", "summary": None, "freq": {}}
+    failure = None
+    try:
+        summary = _analyse(p, comm, ctx)
+    except InputError:
+        raise
+    except NumericalError as exc:      # every rank raises it alike
+        _write_failure(p, comm, ctx, entry(str(exc), exc.exit_code))
+        raise
+    except PETSc.Error as exc:         # a solver of PETSc or SLEPc failed: numerical too
+        _write_failure(p, comm, ctx, entry(f"PETSc error {exc.ierr}: {exc}", 3))
+        raise
+    except Exception as exc:   # noqa: BLE001  (what the solver did not foresee)
+        failure = exc
+    if ctx["phase"] == "writing" or comm.getSize() == 1:
+        message = agree(comm, failure)       # every rank gets here, failed or not
+        if message is None:
+            return summary
+        said = _write_failure(p, comm, ctx, entry(f"internal error: {message}", 5))
+        raise InternalError(f"internal error: {message}{said}") from failure
+    _write_failure(p, comm, ctx, entry(f"internal error: {describe(failure)}", 5))
+    raise failure
+
+
+def _write_failure(p, comm, ctx, error) -> str:
+    """Rank 0 writes the summary of a failed run: what was computed, ``"completed": false``
+    and ``error``; returns "; summary PATH" for the error line (or why it was not written)."""
+    if comm.getRank() != 0 or ctx["summary"] is None and error["kind"] != "internal":
+        return ""
+    path = p.summary or os.path.join(p.output, "summary.json")
+    summary = dict(ctx["summary"] or {"analysis": "eigen"})
+    if ctx["freq"]:
+        summary["frequencies_hz"] = dict(ctx["freq"])
+    summary.update(completed=False, error=error, files={"summary": path})
+    try:
+        output.write_json(path, summary)
+    except Exception as err:   # noqa: BLE001  (the disk may be what failed)
+        return f"; no summary ({describe(err)})"
+    return f"; summary {path}"
+
+
+def _analyse(p, comm, ctx) -> dict:
+    """The analysis itself (see :func:`run`); ``ctx`` follows it for the failure handler."""
     memory.check(p, comm)
     stage = PETSc.Log.Stage("Assembly")
     stage.push()
@@ -177,7 +227,9 @@ def run(p, comm) -> dict:
                                    "element": p.element, "cells": list(p.cells),
                                    "size_m": list(p.size), "ppc": p.ppc, "points": p.points,
                                    "n_points": points.n_global,
-                                   "density_kg_m3": mixture_density(p)}
+                                   "density_kg_m3": mixture_density(p),
+                                   "provenance": provenance.collect(comm, p)}
+    ctx["summary"], ctx["freq"] = summary, freq
     E_c = assembly.constrained_modulus(p.E, p.nu)
     rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
     warnings = []
@@ -188,7 +240,8 @@ def run(p, comm) -> dict:
             res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
         except jacobi.MassError as exc:
             raise NumericalError(mass_diagnosis(p, exc)) from None
-        stage.pop()
+        finally:
+            stage.pop()
         freq["jacobi"], vecs["jacobi"] = frequencies(res.eigenvalues[:p.nmodes]), res.vectors
         # Modes at about 0 Hz (rigid-body motion) have no meaningful relative residual;
         # zero_energy_diagnosis below reports them.
@@ -215,8 +268,10 @@ def run(p, comm) -> dict:
     if "slepc" in p.eigen_solver:
         stage = PETSc.Log.Stage("SLEPc")
         stage.push()
-        values, vectors, seconds = slepc_solve(K, M, p.nmodes)
-        stage.pop()
+        try:
+            values, vectors, seconds = slepc_solve(K, M, p.nmodes)
+        finally:
+            stage.pop()
         freq["slepc"], vecs["slepc"] = frequencies(values), vectors
         summary["slepc"] = {"seconds": seconds}
         PETSc.Sys.Print(f"SLEPc Krylov-Schur: {seconds:.3f} s", comm=comm)
@@ -244,7 +299,8 @@ def run(p, comm) -> dict:
     summary["references"] = refs
     _print_table(comm, freq, refs, summary.get("cross_check"))
 
-    summary["provenance"] = provenance.collect(comm, p)
+    summary["completed"] = True
+    ctx["phase"] = "writing"     # the last collectives come first in it: ranks can agree
     summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
                                       freq.get("jacobi", freq.get("slepc")), rod, summary)
     for obj in (K, M, Kg, Mg, free):

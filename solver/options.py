@@ -260,18 +260,25 @@ def _describe(opt: Option, value) -> str:
     return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
 
 
-def read(spec=None, db=None) -> SimpleNamespace:
+def read(spec=None, db=None, origins=None) -> SimpleNamespace:
     """Read, parse and check every ``-mpm_`` option; raise :class:`InputError` on the first fault.
 
     ``db`` is a ``PETSc.Options`` (the global database when None). Options that no analysis
-    knows, or that the chosen analysis does not use, are errors with a suggestion of the
-    nearest valid name.
+    knows are errors with a suggestion of the nearest valid name. ``origins`` maps the
+    options a scene file set (and the command line did not) to their ``FILE:LINE``
+    (:func:`scan_file`): such an option that the chosen analysis does not use is dropped with
+    a note, so one scene serves both analyses; given anywhere else it is an error.
+
+    The result holds every option's value, ``given`` (the names set), ``from_file`` (those
+    of them a scene file set: ``{name: "FILE:LINE"}``) and ``notes`` (lines to print before
+    the run).
     """
     from petsc4py import PETSc
 
     spec = SPEC if spec is None else spec
     by_name = {o.name: o for o in spec}
     db = PETSc.Options() if db is None else db
+    origins = origins or {}
     given = {k[len(PREFIX):]: v for k, v in db.getAll().items() if k.startswith(PREFIX)}
 
     for name in given:
@@ -308,10 +315,24 @@ def read(spec=None, db=None) -> SimpleNamespace:
         values[opt.name] = value
 
     analysis = values["analysis"]
-    for name in given:
-        if analysis not in by_name[name].used_by:
+    unused = [name for name in given if analysis not in by_name[name].used_by]
+    for name in unused:
+        if name not in origins:
             raise InputError(f"-{PREFIX}{name}: not used by -{PREFIX}analysis {analysis}")
-    return SimpleNamespace(**values, given=tuple(sorted(given)))
+    notes = []
+    if unused:
+        # The values are parsed and checked above (a broken scene file stays an error) but
+        # left at their defaults: the analysis does not read them.
+        for name in unused:
+            values[name] = by_name[name].default
+            del given[name]
+        files = sorted({origins[n].rsplit(":", 1)[0] for n in unused})
+        notes.append(f"{len(unused)} option(s) of {', '.join(files)} not used by "
+                     f"-{PREFIX}analysis {analysis}, ignored: "
+                     + " ".join(f"-{PREFIX}{n}" for n in sorted(unused)))
+    return SimpleNamespace(**values, given=tuple(sorted(given)),
+                           from_file={n: origins[n] for n in given if n in origins},
+                           notes=tuple(notes))
 
 
 def scan_file(path: str) -> dict:

@@ -18,6 +18,32 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+PUBLISHED = os.path.join(ROOT, "docs", "results")     # the tracked results the docs show
+STUDIES = os.path.join(ROOT, "output", "studies")      # everything else, untracked
+
+
+def add_destination(ap, name: str, what: str) -> None:
+    """``--out`` and ``--publish`` of a study script: its results ``what`` go to
+    output/studies/``name``/ unless ``--publish`` sends them to docs/results/ (the tracked
+    copy the docs show) or ``--out`` elsewhere; :func:`destination` reads them."""
+    ap.set_defaults(_study_name=name)
+    ap.add_argument("--out", default=None,
+                    help=f"folder for {what} (default "
+                         f"{os.path.relpath(os.path.join(STUDIES, name), ROOT)})")
+    ap.add_argument("--publish", action="store_true",
+                    help=f"write {what} into {os.path.relpath(PUBLISHED, ROOT)}, the tracked "
+                         "results the docs show, instead of the default folder")
+
+
+def destination(ap, args) -> str:
+    """The folder chosen by the options of :func:`add_destination` (argparse error when
+    both are given)."""
+    if args.publish and args.out:
+        ap.error("--publish writes docs/results; leave out --out (or --publish)")
+    return args.out or (PUBLISHED if args.publish else os.path.join(STUDIES, args._study_name))
+
+
 @dataclass
 class Run:
     name: str
@@ -64,6 +90,9 @@ def _done(run: Run):
     if not (summary.get("stable") is False or "monitor" in summary
             or summary.get("analysis") == "eigen"):
         return None        # an interrupted run: do it again
+    if summary.get("completed") is False and (summary.get("error") or {}).get("kind") not in (
+            "numerical",):
+        return None        # stopped or failed for a reason that may not come again
     return summary, args.get("code"), args.get("seconds", 0.0)
 
 

@@ -84,6 +84,13 @@ def _patch(element, cells, max_state) -> tuple:
     return tuple(patch)
 
 
+def analysis_cells(p) -> tuple:
+    """The cells (NX, NY) that :func:`discrete_limit` analyses: the whole grid, or a patch
+    of at most 4 x 10 cells of the same size when the grid has more than ``MAX_STATE``
+    unknowns."""
+    return _patch(p.element, p.cells, MAX_STATE)
+
+
 def discrete_limit(comm, p, scheme) -> tuple:
     """The stability limit (s) of the explicit step itself, and the cells it was found on.
 
@@ -105,7 +112,7 @@ def discrete_limit(comm, p, scheme) -> tuple:
     same on M3-Q4, within 0.3 % on the quadratic columns) brackets the search on the grid
     itself: two or a few dense eigenvalue problems instead of about seventeen.
     """
-    cells = _patch(p.element, p.cells, MAX_STATE)
+    cells = analysis_cells(p)
     limit = None
     if comm.getRank() == 0:
         small = _patch(p.element, cells, ESTIMATE_STATE)
