@@ -11,6 +11,7 @@ report times with two analytic references:
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 import signal
@@ -76,8 +77,27 @@ def references(p):
 JACOBI_MAX_DOFS = 3000   # f1 by SLEPc above this: Jacobi's dense matrices grow as n^2
 
 
+F1_MAX_DOFS = 20000   # f1 on a coarser grid above this: the shift-invert LU grows fast
+
+
+def f1_cells(p) -> tuple:
+    """The cells of the eigen model that gives f1: the scene's, or coarsened by a whole
+    factor in both directions to at most F1_MAX_DOFS DOFs. f1 of the column converges fast
+    (M1-Q4 column: 16.89343 Hz on 25 x 625 cells, 16.89343 on 100 x 2500, whose solve
+    needs 2.2 GB and 21 s for that sixth digit)."""
+    order = {"q4": 1, "q8": 2, "q9": 2}[p.element]
+    factor = 1
+    while 2 * (order * (p.cells[0] // factor) + 1) * (order * (p.cells[1] // factor) + 1) \
+            > F1_MAX_DOFS and min(p.cells) // (factor + 1) >= 1:
+        factor += 1
+    return tuple(max(1, c // factor) for c in p.cells)
+
+
 def fundamental_frequency(comm, p) -> float:
-    """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3."""
+    """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3, on
+    :func:`f1_cells`."""
+    p = copy.copy(p)
+    p.cells = f1_cells(p)
     _, pts, K, M, free = eigen.build(comm, p)
     try:
         if p.eigen_solver[0] == "jacobi" and K.getSize()[0] <= JACOBI_MAX_DOFS:
@@ -567,6 +587,11 @@ def _check_feasible(p, scheme):
                      "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))
 
 
+def _coarser(p) -> str:
+    cells = f1_cells(p)
+    return "" if cells == tuple(p.cells) else f", on {cells[0]} x {cells[1]} cells"
+
+
 def _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme):
     S = scheme["mass_scaling"]
     scaled = "" if S == 1 else f", inertia scaled by S = {S:.4g}"
@@ -575,7 +600,7 @@ def _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme):
              "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4g} m2/s",
              "oscillator": f"L/c3, c3 = 2 pi f1 H = "
                            f"{2 * np.pi * f1 / np.sqrt(S) * p.size[1]:.4g} m/s "
-                           f"(f1 = {f1 / np.sqrt(S):.4g} Hz{scaled})",
+                           f"(f1 = {f1 / np.sqrt(S):.4g} Hz{scaled}{_coarser(p)})",
              "drag": f"2/lambda, lambda = {timestep.drag_rate(p, S):.4g} 1/s"
                      + ("" if scheme["drag"] == "explicit"
                         else " (no limit: the drag is implicit)"),
@@ -647,21 +672,44 @@ class _Series:
                                        os.path.join(self.writer.folder, str(e[1])))]
 
     def write(self, points, step, t):
-        names = ("x", "x0", "p", "stress", "vs", "vl", "id")
-        data = np.column_stack(points.get(*names))
-        parts = self.comm.tompi4py().gather(data, root=0)
+        """Write the points' fields at step ``step``, time ``t`` (s) (collective). One field
+        at a time is gathered and reordered: at 1e6 points a write needs about 50 bytes per
+        point beyond the points' own storage, not 500 as the whole table at once did."""
+        mpi = self.comm.tompi4py()
+
+        def gathered(name, transform=None):
+            local = points.views(name)
+            local = transform(local) if transform else local
+            parts = mpi.gather(local, root=0)
+            if parts is None:
+                return None
+            whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
+            return whole[order]
+
+        ids = mpi.gather(points.views("id"), root=0)
+        order = np.argsort(np.concatenate(ids), kind="stable") if ids is not None else None
+        xy = gathered("x")
+
+        def with_z(a):
+            return None if a is None else np.column_stack([a, np.zeros(len(a))])
+
+        def displacement():
+            x, x0 = gathered("x"), gathered("x0")
+            return None if x is None else x - x0
+
+        fields = {
+            "displacement": lambda: with_z(displacement()),
+            "velocity_solid": lambda: with_z(gathered("vs")),
+            "velocity_liquid": lambda: with_z(gathered("vl")),
+            "pore_pressure": lambda: gathered("p"),
+            "effective_stress_xx": lambda: gathered("stress", lambda s: s[:, 0].copy()),
+            "effective_stress_yy": lambda: gathered("stress", lambda s: s[:, 1].copy()),
+            "effective_stress_xy": lambda: gathered("stress", lambda s: s[:, 2].copy())}
         if self.writer is None:
+            for field in fields.values():     # the gathers are collective
+                field()
             return
-        d = np.concatenate(parts)
-        d = d[np.argsort(d[:, 12], kind="stable")]
-        z = np.zeros((len(d), 1))
-        self.writer.write(step, t, d[:, 0:2], {
-            "displacement": np.hstack([d[:, 0:2] - d[:, 2:4], z]),
-            "velocity_solid": np.hstack([d[:, 8:10], z]),
-            "velocity_liquid": np.hstack([d[:, 10:12], z]),
-            "pore_pressure": d[:, 4],
-            "effective_stress_xx": d[:, 5], "effective_stress_yy": d[:, 6],
-            "effective_stress_xy": d[:, 7]})
+        self.writer.write(step, t, xy, fields)
 
 
 class _Surface:

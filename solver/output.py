@@ -145,18 +145,22 @@ class XdmfSeries:
 
     def write(self, step: int, t: float, xy, fields: dict):
         """Add step ``step`` at time ``t`` (s): points ``xy`` (N, 2) in m and ``fields``
-        {name: (N,) or (N, c) array}; then rewrite the index."""
+        {name: (N,) or (N, c) array, or a function returning one, called in turn so that
+        only one field at a time need be in memory}; then rewrite the index."""
         import h5py
 
         n = len(xy)
         name = f"{self.stem}_{step:07d}.h5"
+        layout = []
         with atomic(os.path.join(self.folder, name)) as tmp:
             with h5py.File(tmp, "w") as h5:
                 h5["geometry"] = np.column_stack([xy, np.zeros(n)])
                 h5["topology"] = np.arange(n, dtype=np.int64).reshape(-1, 1)
                 for key, value in fields.items():
-                    h5[key] = np.asarray(value, dtype=float)
-        layout = [[key, int(np.prod(np.shape(value)[1:]))] for key, value in fields.items()]
+                    value = np.asarray(value() if callable(value) else value, dtype=float)
+                    h5[key] = value
+                    layout.append([key, int(np.prod(value.shape[1:]))])
+                    del value
         self.entries = [e for e in self.entries if e[1] != name] + [[t, name, n, layout]]
         write_text(self.path, self.index())
 
