@@ -68,8 +68,12 @@ class Run:
 
 
 def environment():
-    """The children's environment: Open MPI refuses root without these two variables."""
+    """The children's environment: Open MPI refuses root without these two variables, and
+    each child runs on one core (its BLAS too: two threads per child on a core each would
+    contend with the other children)."""
     env = dict(os.environ)
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
+        env.setdefault(var, "1")
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
         env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
