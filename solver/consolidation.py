@@ -323,6 +323,7 @@ def _run(p, comm, ctx) -> int:
     history = []          # (t, Tv, p/q at the monitor)
     surface = _Surface(grid, p)
     depths = Depths(H)
+    depths.refresh(points)
     settlement = []       # (t, Tv, surface settlement (m), mean p (Pa)), as history
     degree = []           # the degree of consolidation at the report times
     reports, profiles = [], []
@@ -521,7 +522,9 @@ class Depths:
     def __init__(self, height):
         self.height, self._generation = height, None
 
-    def _refresh(self, points):
+    def refresh(self, points):
+        """Find the distinct depths (a sort of the points: 0.3 s at 1e6 points, done at
+        set-up and again only after the points changed)."""
         if self._generation != points.generation:
             x0 = points.views("x0")
             self.values, self.index = np.unique(self.height - x0[:, 1], return_inverse=True)
@@ -532,7 +535,7 @@ class Depths:
         function exact(depth) (p/q, depth in m)."""
         from mpi4py import MPI
 
-        self._refresh(points)
+        self.refresh(points)
         pp, V = points.views("p", "volume")
         sums = np.array([float(np.sum(V * (pp / q - f(self.values)[self.index]) ** 2))
                          for f in profiles] + [float(np.sum(V))])
