@@ -104,7 +104,7 @@ def fundamental_frequency(comm, p) -> float:
         if p.eigen_solver[0] == "jacobi" and K.getSize()[0] <= JACOBI_MAX_DOFS:
             lam = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps).eigenvalues[0]
         else:
-            lam = eigen.slepc_solve(K, M, 1)[0][0]
+            lam = eigen.slepc_solve(K, M, 1).values[0]
     finally:
         for obj in (K, M, free, pts):
             obj.destroy()
