@@ -17,7 +17,8 @@ Failures print one line on stderr (rank 0; the failing rank for an unshared inte
 error); ``-mpm_debug`` adds the Python traceback. Options a scene file sets that the chosen
 analysis does not use, and its report times after ``-mpm_Tv_end``, are dropped with a note;
 given on the command line they are errors. A reader of stdout that goes away (``| head``)
-does not stop the run.
+does not stop the run. ``-help`` (``--help``, ``-h``) prints the option table with the values
+in effect and runs nothing (exit 0).
 """
 
 from __future__ import annotations
