@@ -11,7 +11,7 @@ report times with two analytic references:
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
 import os
 import signal
@@ -32,8 +32,9 @@ MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
 
 
-def _validate(p) -> list:
-    """InputError for options that contradict each other; returns the notes to print."""
+def _validate(p) -> tuple:
+    """InputError for options that contradict each other; returns the parameters to run
+    (report times after the end dropped) and the notes to print."""
     H = p.size[1]
     notes = []
     if not math.isnan(p.monitor_height) and not 0 <= p.monitor_height <= H:
@@ -46,7 +47,8 @@ def _validate(p) -> list:
         # Report times of a scene file (or the defaults) after a shorter end: shortening a
         # run takes one option, -mpm_Tv_end.
         where = p.from_file.get("Tv_report", "the default")
-        p.Tv_report = tuple(t for t in p.Tv_report if t not in late) or (p.Tv_end,)
+        p = dataclasses.replace(p, Tv_report=tuple(t for t in p.Tv_report if t not in late)
+                                or (p.Tv_end,))
         notes.append(f"-mpm_Tv_report ({where}): "
                      + ",".join(f"{t:g}" for t in late) + f" after -mpm_Tv_end {p.Tv_end:g} "
                      f"dropped; reporting at T_v = {','.join(f'{t:g}' for t in p.Tv_report)}")
@@ -56,7 +58,7 @@ def _validate(p) -> list:
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
-    return notes
+    return p, notes
 
 
 def load_scale(p) -> float:
@@ -96,14 +98,13 @@ def f1_cells(p) -> tuple:
 def fundamental_frequency(comm, p) -> float:
     """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3, on
     :func:`f1_cells`."""
-    p = copy.copy(p)
-    p.cells = f1_cells(p)
+    p = dataclasses.replace(p, cells=f1_cells(p))
     _, pts, K, M, free = eigen.build(comm, p)
     try:
         if p.eigen_solver[0] == "jacobi" and K.getSize()[0] <= JACOBI_MAX_DOFS:
             lam = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps).eigenvalues[0]
         else:
-            lam = eigen.slepc_solve(K, M, 1)[0][0]
+            lam = eigen.slepc_solve(K, M, 1).values[0]
     finally:
         for obj in (K, M, free, pts):
             obj.destroy()
@@ -191,12 +192,13 @@ class _Failure:
 def _run(p, comm, ctx) -> int:
     """The run itself (see :func:`run`); ``ctx`` follows it for the failure handler."""
     ctx.summary_path = p.summary or os.path.join(p.output, "summary.json")
-    for note in _validate(p):
+    p, notes = _validate(p)
+    for note in notes:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
     goal = None
     if not math.isnan(p.target_error):
         choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
-        workprecision.apply(p, choice)
+        p = workprecision.apply(p, choice)
         PETSc.Sys.Print("\n".join(lines), comm=comm)
         goal = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
                                                           workprecision.PICKED},
