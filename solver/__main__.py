@@ -17,7 +17,8 @@ Failures print one line on stderr (rank 0; the failing rank for an unshared inte
 error); ``-mpm_debug`` adds the Python traceback. Options a scene file sets that the chosen
 analysis does not use, and its report times after ``-mpm_Tv_end``, are dropped with a note;
 given on the command line they are errors. A reader of stdout that goes away (``| head``)
-does not stop the run.
+does not stop the run. ``-help`` (``--help``, ``-h``) prints the option table with the values
+in effect and runs nothing (exit 0).
 """
 
 from __future__ import annotations
@@ -79,9 +80,8 @@ def main(argv=None) -> int:
 
     _survive_closed_stdout()
     comm = PETSc.COMM_WORLD
-    if "-help" in argv or "-h" in argv:
-        PETSc.Sys.Print("Options of the MPM solver (SI units):\n" + options.table(), comm=comm)
-        return 0
+    if {"-help", "--help", "-h"} & set(argv):
+        return _help(options, origins, comm)
     debug = PETSc.Options().getString("mpm_debug", "false")
     debug = str(debug or "true").strip().lower() not in ("0", "false", "no", "off")
     if not debug:
@@ -90,7 +90,8 @@ def main(argv=None) -> int:
         PETSc.Sys.pushErrorHandler("ignore")
     try:
         params = options.read(origins=origins)
-        for note in params.notes + _own_folder(params, scene_analysis):
+        params, moved = _own_folder(params, scene_analysis)
+        for note in params.notes + moved:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
         check_output(params, comm)
         if params.analysis == "eigen":
@@ -129,6 +130,24 @@ def main(argv=None) -> int:
     return 0
 
 
+def _help(options, origins, comm) -> int:
+    """Print the option table with the values in effect (defaults, then the scene files,
+    then the command line) and run nothing. Values that :func:`options.read` refuses are
+    shown as given, with the reason below the table."""
+    from petsc4py import PETSc
+
+    from .errors import InputError
+
+    problem = ""
+    try:
+        values = options.read(origins=origins)
+    except InputError as exc:
+        values, problem = options.given_text(), f"\nNote: {exc}; this command would stop there"
+    PETSc.Sys.Print("Options of the MPM solver (SI units), with the values this command "
+                    "would use:\n" + options.table(values=values) + problem, comm=comm)
+    return 0
+
+
 def _value_at(where: str) -> str:
     """The value on line ``FILE:LINE`` of a scene file (checked by scan_file already)."""
     path, number = where.rsplit(":", 1)
@@ -141,12 +160,15 @@ def _value_at(where: str) -> str:
 def _own_folder(p, scene_analysis) -> tuple:
     """A scene of one analysis run as the other (``-mpm_analysis`` on the command line)
     writes into a sub-folder of the scene's ``-mpm_output``, named after the analysis, so
-    that it leaves the scene's own summary alone; returns the note that says so."""
+    that it leaves the scene's own summary alone; returns the parameters (frozen: a copy
+    when the folder changes) and the note that says so."""
     if scene_analysis in (None, p.analysis) or "output" not in p.from_file:
-        return ()
-    p.output = os.path.join(p.output, p.analysis)
-    return (f"a {scene_analysis} scene run as -mpm_analysis {p.analysis}: results in "
-            f"{p.output}",)
+        return p, ()
+    import dataclasses
+
+    p = dataclasses.replace(p, output=os.path.join(p.output, p.analysis))
+    return p, (f"a {scene_analysis} scene run as -mpm_analysis {p.analysis}: results in "
+               f"{p.output}",)
 
 
 def check_output(p, comm) -> None:

@@ -11,7 +11,7 @@ report times with two analytic references:
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 import math
 import os
 import signal
@@ -30,8 +30,9 @@ MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
 
 
-def _validate(p) -> list:
-    """InputError for options that contradict each other; returns the notes to print."""
+def _validate(p) -> tuple:
+    """InputError for options that contradict each other; returns the parameters to run
+    (report times after the end dropped) and the notes to print."""
     H = p.size[1]
     notes = []
     if not math.isnan(p.monitor_height) and not 0 <= p.monitor_height <= H:
@@ -44,7 +45,8 @@ def _validate(p) -> list:
         # Report times of a scene file (or the defaults) after a shorter end: shortening a
         # run takes one option, -mpm_Tv_end.
         where = p.from_file.get("Tv_report", "the default")
-        p.Tv_report = tuple(t for t in p.Tv_report if t not in late) or (p.Tv_end,)
+        p = dataclasses.replace(p, Tv_report=tuple(t for t in p.Tv_report if t not in late)
+                                or (p.Tv_end,))
         notes.append(f"-mpm_Tv_report ({where}): "
                      + ",".join(f"{t:g}" for t in late) + f" after -mpm_Tv_end {p.Tv_end:g} "
                      f"dropped; reporting at T_v = {','.join(f'{t:g}' for t in p.Tv_report)}")
@@ -54,7 +56,7 @@ def _validate(p) -> list:
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
-    return notes
+    return p, notes
 
 
 def load_scale(p) -> float:
@@ -94,8 +96,7 @@ def f1_cells(p) -> tuple:
 def fundamental_frequency(comm, p) -> float:
     """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3, on
     :func:`f1_cells`."""
-    p = copy.copy(p)
-    p.cells = f1_cells(p)
+    p = dataclasses.replace(p, cells=f1_cells(p))
     made = scene.build(comm, p)
     _, _, K, M, _ = made
     try:
@@ -103,8 +104,8 @@ def fundamental_frequency(comm, p) -> float:
             res = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps)
             lam, vectors = res.eigenvalues[0], res.vectors
         else:
-            values, vectors, _ = eigen.slepc_solve(K, M, 1)
-            lam = values[0]
+            res = eigen.slepc_solve(K, M, 1)
+            lam, vectors = res.values[0], res.vectors
         scene.destroy(*vectors)
     finally:
         scene.destroy(*reversed(made))
@@ -203,12 +204,13 @@ class _Failure:
 def _run(p, comm, ctx) -> int:
     """The run itself (see :func:`run`); ``ctx`` follows it for the failure handler."""
     ctx.summary_path = p.summary or os.path.join(p.output, "summary.json")
-    for note in _validate(p):
+    p, notes = _validate(p)
+    for note in notes:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
     goal = None
     if not math.isnan(p.target_error):
         choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
-        workprecision.apply(p, choice)
+        p = workprecision.apply(p, choice)
         PETSc.Sys.Print("\n".join(lines), comm=comm)
         goal = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
                                                           workprecision.PICKED},
@@ -861,12 +863,13 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
         np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q", comments="")
     # Every point's pore pressure at every isochrone time: enough to redraw Figs 3-5.
     files["profiles_csv"] = os.path.join(p.output, "profiles.csv")
-    rows = [np.column_stack([np.full(len(prof), Tv), np.full(len(prof), t), prof[:, 3],
-                             prof[:, 0], prof[:, 1] / load_scale(p), prof[:, 2]])
-            for Tv, t, prof in profiles]
-    with output.atomic(files["profiles_csv"]) as tmp:
-        np.savetxt(tmp, np.concatenate(rows) if rows else np.zeros((0, 6)), delimiter=",",
-                   header="Tv,t_s,x_m,y0_m,p_over_q,volume_m3", comments="")
+    with output.atomic(files["profiles_csv"]) as tmp, open(tmp, "w") as fh:
+        fh.write("Tv,t_s,x_m,y0_m,p_over_q,volume_m3\n")
+        for Tv, t, prof in profiles:         # one isochrone at a time: 48 bytes per point
+            np.savetxt(fh, np.column_stack([np.full(len(prof), Tv), np.full(len(prof), t),
+                                            prof[:, 3], prof[:, 0],
+                                            prof[:, 1] / load_scale(p), prof[:, 2]]),
+                       delimiter=",")
     if p.figures:
         files.update(_figures(p, profiles, hist, c2 / cv, p0, monitor_height))
     return files
@@ -909,7 +912,8 @@ def _isochrone_figure(plt, p, profiles, ratio, p0):
     figures.isochrone_references(ax, [Tv for Tv, _, _ in profiles], colors, p.size[1], ratio,
                                  p0)
     for i, ((Tv, _, prof), col) in enumerate(zip(profiles, colors)):
-        ax.plot(prof[:, 1] / load_scale(p), prof[:, 0], "o", color=col, ms=3, mfc="none",
+        k = figures.drawn(len(prof))
+        ax.plot(prof[k, 1] / load_scale(p), prof[k, 0], "o", color=col, ms=3, mfc="none",
                 label=None if i else "MPM points")
     ax.set_title(f"Isochrones, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
     figures.legend_below(ax, ncol=2)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import time
 from contextlib import ExitStack
+from typing import NamedTuple
 
 import numpy as np
 from petsc4py import PETSc
@@ -78,15 +79,32 @@ def zero_energy_diagnosis(p, freq, rod):
 # The scene (grid, points, boundary conditions, densities) is built by solver.scene.
 
 
-def slepc_solve(K, M, nmodes: int, which: str = "smallest"):
-    """Eigenpairs of K x = lambda M x by SLEPc (GHEP, Krylov-Schur).
+class SlepcResult(NamedTuple):
+    """What :func:`slepc_solve` found, and with which solver."""
+    values: np.ndarray     # eigenvalues (rad2/s2), ascending ('largest': descending)
+    vectors: list          # their eigenvectors (PETSc Vecs)
+    seconds: float         # wall time of set-up and solve
+    eps_type: str          # the EPS type that solved (e.g. "krylovschur", "lapack")
+    st_type: str           # its spectral transformation (e.g. "sinvert", "shift")
+
+    @property
+    def label(self) -> str:
+        """The solver as printed: "SLEPc krylovschur, ST sinvert"."""
+        return f"SLEPc {self.eps_type}, ST {self.st_type}"
+
+
+def slepc_solve(K, M, nmodes: int, which: str = "smallest", prefix: str = ""):
+    """Eigenpairs of K x = lambda M x by SLEPc (GHEP, Krylov-Schur by default).
 
     ``which='smallest'``: shift-and-invert about 0 with a MUMPS LU (works in parallel);
-    ``'largest'``: plain Krylov-Schur for the largest eigenvalues. Any ``-eps_*``/``-st_*``
-    option overrides these defaults. Returns (eigenvalues ascending, eigenvectors, seconds).
+    ``'largest'``: plain Krylov-Schur for the largest eigenvalues. Any option
+    ``-{prefix}eps_*``/``-{prefix}st_*`` overrides these defaults: the prefix keeps a
+    secondary solve (the FE reference's ``fe_``) apart from the main one's ``-eps_*``.
+    Returns a :class:`SlepcResult` with the solver types actually used.
     """
     t0 = time.perf_counter()
     eps = SLEPc.EPS().create(K.getComm())
+    eps.setOptionsPrefix(prefix)
     eps.setOperators(K, M)
     eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
     eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
@@ -102,9 +120,9 @@ def slepc_solve(K, M, nmodes: int, which: str = "smallest"):
         pc = ksp.getPC()
         pc.setType(PETSc.PC.Type.LU)
         pc.setFactorSolverType("mumps")
-        eps.setFromOptions()
     else:
         eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+    eps.setFromOptions()
     eps.solve()
     nconv = eps.getConverged()
     if nconv < nmodes:
@@ -119,7 +137,8 @@ def slepc_solve(K, M, nmodes: int, which: str = "smallest"):
     if which == "largest":
         order = order[::-1]
     order = order[:nmodes]
-    result = (np.array(values)[order], [vectors[k] for k in order], time.perf_counter() - t0)
+    result = SlepcResult(np.array(values)[order], [vectors[k] for k in order],
+                         time.perf_counter() - t0, eps.getType(), eps.getST().getType())
     eps.destroy()
     return result
 
@@ -259,11 +278,11 @@ def _analysis(p, comm, ctx, owned) -> dict:
             raise NumericalError(mass_diagnosis(p, exc).replace("Jacobi: ", "", 1)) from None
     if "slepc" in p.eigen_solver:
         with PETSc.Log.Stage("SLEPc"):
-            values, vectors, seconds = slepc_solve(K, M, p.nmodes)
-        owned.callback(destroy, *vectors)
-        freq["slepc"], vecs["slepc"] = frequencies(values), vectors
-        summary["slepc"] = {"seconds": seconds}
-        PETSc.Sys.Print(f"SLEPc Krylov-Schur: {seconds:.3f} s", comm=comm)
+            res = slepc_solve(K, M, p.nmodes)
+        owned.callback(destroy, *res.vectors)
+        freq["slepc"], vecs["slepc"] = frequencies(res.values), res.vectors
+        summary["slepc"] = {"seconds": res.seconds, "type": res.eps_type, "st": res.st_type}
+        PETSc.Sys.Print(f"{res.label}: {res.seconds:.3f} s", comm=comm)
     zero = zero_energy_diagnosis(p, freq, rod)
     if zero:
         warnings.append(zero)
@@ -282,9 +301,10 @@ def _analysis(p, comm, ctx, owned) -> dict:
     gauss = build(comm, p, placement="gauss", ppc=fe_ppc)
     owned.callback(destroy, *reversed(gauss))
     _, _, Kg, Mg, _ = gauss
-    values, vectors, _ = slepc_solve(Kg, Mg, p.nmodes)
-    destroy(*vectors)
-    fe = frequencies(values)
+    # Its own options prefix: -eps_* tune the main solve above, -fe_eps_* this one.
+    res = slepc_solve(Kg, Mg, p.nmodes, prefix="fe_")
+    destroy(*res.vectors)
+    fe = frequencies(res.values)
     refs = {"rod_hz": rod, "fe_gauss_hz": fe}
     if is_paper_scene(p):
         refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]

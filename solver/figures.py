@@ -60,14 +60,24 @@ def legend_below(ax, ncol: int = 2):
               frameon=False)
 
 
+MAX_DRAWN = 20000    # points per series in a figure: more only cost time and memory
+
+
+def drawn(n: int, most: int = MAX_DRAWN) -> slice:
+    """Every k-th of ``n`` points, k the smallest stride that keeps at most ``most``: a
+    figure of 1e6 points took minutes and gigabytes and showed nothing more."""
+    return slice(None, None, max(1, -(-n // most)))
+
+
 def pressure_field(plt, snapshots, q: float, title: str, width: float = None):
     """A figure of the pore-pressure field, one panel per snapshot (T_v, x (m), height (m),
     p (Pa)) of the points, on one colour scale from 0 to the load ``q`` (Pa), in kPa."""
     n = len(snapshots)
     fig, axes = plt.subplots(1, n, figsize=(2.2 * n + 1.6, 6), squeeze=False, sharey=True)
     for ax, (Tv, x, y, pp) in zip(axes[0], snapshots):
-        sc = ax.scatter(x, y, c=np.asarray(pp) / 1e3, s=12, cmap=PRESSURE_CMAP, vmin=0,
-                        vmax=q / 1e3)
+        k = drawn(len(x))
+        sc = ax.scatter(np.asarray(x)[k], np.asarray(y)[k], c=np.asarray(pp)[k] / 1e3, s=12,
+                        cmap=PRESSURE_CMAP, vmin=0, vmax=q / 1e3)
         ax.set_title(f"T_v = {Tv:g}", fontsize=9)
         ax.set_aspect("equal")
         ax.set_xlabel("x (m)")

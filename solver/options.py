@@ -4,15 +4,21 @@ Every parameter of a run is a PETSc option with the prefix ``-mpm_``, so a scene
 with ``-options_file`` sets them and the command line overrides any of them. Each option is
 declared once in :data:`SPEC` with its type, default, range check, the analyses that use it
 and a help line; the README's option table is generated from the same list
-(``python -m solver -help_mpm``).
+(``python -m solver -help`` prints it with the values in effect).
+
+Every ``-mpm_`` value is fetched from the database by name (``getString``), which marks it
+used: ``-options_left`` then lists only options nobody read, such as a misspelt
+``-eps_tpye``. The result of :func:`read` is frozen; a changed set of parameters is a new
+value (``dataclasses.replace``), so what the run uses is what was read and checked, plus
+changes that are visible where they are made.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 from .errors import InputError
 
@@ -208,6 +214,20 @@ SPEC = [
 ]
 
 _BY_NAME = {o.name: o for o in SPEC}
+# Besides the options, what :func:`read` found out about where they came from.
+EXTRA_FIELDS = ("given", "from_file", "notes")
+
+
+def params_class(spec):
+    """A frozen dataclass with a field per option of ``spec`` and :data:`EXTRA_FIELDS`
+    (assigning a field raises ``dataclasses.FrozenInstanceError``)."""
+    fields = [(o.name, object) for o in spec] + [(f, object) for f in EXTRA_FIELDS]
+    cls = dataclasses.make_dataclass("Params", fields, frozen=True)
+    cls.__module__ = __name__
+    return cls
+
+
+Params = params_class(SPEC)    # module level, so that the default parameters pickle
 
 
 LIMIT = 1e30   # larger magnitudes overflow the products the solver forms
@@ -260,7 +280,7 @@ def _describe(opt: Option, value) -> str:
     return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
 
 
-def read(spec=None, db=None, origins=None) -> SimpleNamespace:
+def read(spec=None, db=None, origins=None):
     """Read, parse and check every ``-mpm_`` option; raise :class:`InputError` on the first fault.
 
     ``db`` is a ``PETSc.Options`` (the global database when None). Options that no analysis
@@ -269,9 +289,10 @@ def read(spec=None, db=None, origins=None) -> SimpleNamespace:
     (:func:`scan_file`): such an option that the chosen analysis does not use is dropped with
     a note, so one scene serves both analyses; given anywhere else it is an error.
 
-    The result holds every option's value, ``given`` (the names set), ``from_file`` (those
-    of them a scene file set: ``{name: "FILE:LINE"}``) and ``notes`` (lines to print before
-    the run).
+    The result, a frozen :data:`Params` (``dataclasses.replace`` makes a changed copy),
+    holds every option's value, ``given`` (the names set), ``from_file`` (those of them a
+    scene file set: ``{name: "FILE:LINE"}``) and ``notes`` (lines to print before the run).
+    Every option given is fetched by name, which marks it used for ``-options_left``.
     """
     from petsc4py import PETSc
 
@@ -279,7 +300,9 @@ def read(spec=None, db=None, origins=None) -> SimpleNamespace:
     by_name = {o.name: o for o in spec}
     db = PETSc.Options() if db is None else db
     origins = origins or {}
-    given = {k[len(PREFIX):]: v for k, v in db.getAll().items() if k.startswith(PREFIX)}
+    # getString marks the option used (getAll does not): -options_left then reports only
+    # the options nobody read. PETSc returns "" for an option given without a value.
+    given = {k[len(PREFIX):]: db.getString(k, "") for k in db.getAll() if k.startswith(PREFIX)}
 
     for name in given:
         if name not in by_name:
@@ -330,9 +353,9 @@ def read(spec=None, db=None, origins=None) -> SimpleNamespace:
         notes.append(f"{len(unused)} option(s) of {', '.join(files)} not used by "
                      f"-{PREFIX}analysis {analysis}, ignored: "
                      + " ".join(f"-{PREFIX}{n}" for n in sorted(unused)))
-    return SimpleNamespace(**values, given=tuple(sorted(given)),
-                           from_file={n: origins[n] for n in given if n in origins},
-                           notes=tuple(notes))
+    cls = Params if spec is SPEC else params_class(spec)
+    return cls(**values, given=tuple(sorted(given)),
+               from_file={n: origins[n] for n in given if n in origins}, notes=tuple(notes))
 
 
 def scan_file(path: str) -> dict:
@@ -366,11 +389,29 @@ def scan_file(path: str) -> dict:
     return where
 
 
-def table(spec=None) -> str:
-    """The option table as Markdown (for the README and ``-help_mpm``)."""
+def table(spec=None, values=None) -> str:
+    """The option table as Markdown (the README's). ``values`` (a :func:`read` result, or
+    ``{name: text}``) adds a column "value" with the values in effect (``-help``)."""
     spec = SPEC if spec is None else spec
-    rows = ["| option | default | used by | meaning |", "|---|---|---|---|"]
+    if values is not None and not isinstance(values, dict):
+        values = {o.name: _describe(o, getattr(values, o.name)) for o in spec}
+    value_head, value_rule = ("value | ", "---|") if values is not None else ("", "")
+    rows = [f"| option | {value_head}default | used by | meaning |",
+            f"|---|{value_rule}---|---|---|"]
     for o in spec:
-        rows.append(f"| `-{PREFIX}{o.name}` | `{_describe(o, o.default)}` | "
+        value = f"`{values[o.name]}` | " if values is not None else ""
+        rows.append(f"| `-{PREFIX}{o.name}` | {value}`{_describe(o, o.default)}` | "
                     f"{', '.join(o.used_by)} | {o.help} |")
     return "\n".join(rows)
+
+
+def given_text(spec=None, db=None) -> dict:
+    """``{name: text}`` of every option of ``spec`` as the database holds it (the default
+    for those not given), unparsed: ``-help`` shows these when :func:`read` refuses them.
+    Fetching marks the options used."""
+    from petsc4py import PETSc
+
+    spec = SPEC if spec is None else spec
+    db = PETSc.Options() if db is None else db
+    return {o.name: db.getString(PREFIX + o.name, "") if db.hasName(PREFIX + o.name)
+            else _describe(o, o.default) for o in spec}

@@ -16,6 +16,7 @@ a few percent, the model error of the paper's comparison).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -133,7 +134,5 @@ def _text(v) -> str:
 
 
 def apply(p, choice):
-    """The run's parameters with the picked discretization."""
-    for key in PICKED:
-        setattr(p, key, _value(choice, key))
-    return p
+    """A copy of the run's parameters ``p`` (frozen) with the picked discretization."""
+    return dataclasses.replace(p, **{key: _value(choice, key) for key in PICKED})
