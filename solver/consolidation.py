@@ -21,12 +21,10 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
-               output, provenance, timestep, workprecision)
+               output, provenance, scene, timestep, workprecision)
 from .errors import (InputError, InternalError, Interrupted, NumericalError, agree, describe,
                      entry)
-from .grid import Grid
-from .points import place
-from .twophase import TwoPhase, point_fields
+from .twophase import TwoPhase
 
 MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
@@ -64,7 +62,7 @@ def _validate(p) -> tuple:
 def load_scale(p) -> float:
     """The pressure that normalises p (Pa): the surface load q, or without one the weight
     of the column per unit area, rho_m g H."""
-    return p.load if p.load > 0 else eigen.mixture_density(p) * p.gravity * p.size[1]
+    return p.load if p.load > 0 else scene.mixture_density(p) * p.gravity * p.size[1]
 
 
 def references(p):
@@ -99,15 +97,18 @@ def fundamental_frequency(comm, p) -> float:
     """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3, on
     :func:`f1_cells`."""
     p = dataclasses.replace(p, cells=f1_cells(p))
-    _, pts, K, M, free = eigen.build(comm, p)
+    made = scene.build(comm, p)
+    _, _, K, M, _ = made
     try:
         if p.eigen_solver[0] == "jacobi" and K.getSize()[0] <= JACOBI_MAX_DOFS:
-            lam = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps).eigenvalues[0]
+            res = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps)
+            lam, vectors = res.eigenvalues[0], res.vectors
         else:
-            lam = eigen.slepc_solve(K, M, 1).values[0]
+            res = eigen.slepc_solve(K, M, 1)
+            lam, vectors = res.values[0], res.vectors
+        scene.destroy(*vectors)
     finally:
-        for obj in (K, M, free, pts):
-            obj.destroy()
+        scene.destroy(*reversed(made))
     return float(eigen.frequencies([lam])[0])
 
 
@@ -121,8 +122,18 @@ def run(p, comm) -> int:
     fields) agree at a step, i.e. after a failure in the reporting that follows it. Ranks
     agree on a failure in the reporting after the last step (where rank 0 writes alone),
     and on one rank; a failure inside the stepping of a parallel run on some ranks only
-    leaves the others in a collective, and reaches the caller as it is (to abort MPI)."""
+    leaves the others in a collective, and reaches the caller as it is (to abort MPI).
+    The PETSc objects the run made are destroyed on the way out, after the failure
+    handling (its checkpoint needs the points)."""
     ctx = _Failure(comm)
+    try:
+        return _handled(p, comm, ctx)
+    finally:
+        scene.destroy(*reversed(ctx.owned))
+
+
+def _handled(p, comm, ctx) -> int:
+    """:func:`run`'s failure handling around :func:`_run`."""
     failure = None
     try:
         code = _run(p, comm, ctx)
@@ -152,6 +163,7 @@ class _Failure:
         self.whole = None            # the last step whose points and records all agree
         self.t_wall = time.perf_counter()
         self.cleanup = []            # calls that undo the run's settings (signals, FP)
+        self.owned = []              # PETSc objects (and their owners), destroyed by run()
 
     def record(self, comm, message, exc=None):
         """Write what a failed run can (a checkpoint when the state is whole and every rank
@@ -211,20 +223,16 @@ def _run(p, comm, ctx) -> int:
     from mpi4py import MPI
 
     H = p.size[1]
-    bcs = eigen.boundary_conditions(p)
+    bcs = scene.boundary_conditions(p)
     S = scheme["mass_scaling"]
-    grid = Grid(comm, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", point_fields(p))
+    grid, points = scene.two_phase_body(comm, p)
+    ctx.owned += [grid, points]
     restart = checkpoint.read(p.restart, p) if p.restart else None
     if restart is not None:
         # auto depends on the earliest report time, which a restart may change: keep the
         # factor the run started with (the signature has checked everything else).
         S = scheme["mass_scaling"] = restart[2].get("mass_scaling", S)
-    offset = mpi.exscan(points.n_local) or 0
-    with points.fields("x", "x0", "monitor", "id", "J") as (x, x0, mon, ids, J):
-        ids[:] = offset + np.arange(len(ids))     # global numbers, for messages
-        J[:] = 1.0
-        x0[:] = x
+    with points.fields("x0", "monitor") as (x0, mon):
         y0 = x0[:, 1]
         if math.isnan(p.monitor_height):
             below = y0[y0 < H / 2 - 1e-12 * H]
@@ -241,31 +249,29 @@ def _run(p, comm, ctx) -> int:
                            "x0" if scheme["kinematics"] == "small" else "x")
 
     # Critical time steps.
-    stage = PETSc.Log.Stage("Critical time steps")
-    stage.push()
-    try:
-        f1 = fundamental_frequency(comm, p)
-    except NumericalError as exc:
-        # f1 only feeds the spring-mass criterion, which does not bound stability (see
-        # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no reason
-        # to refuse the run, whose lumped masses are positive.
-        PETSc.Sys.Print(f"Note: no fundamental frequency, hence no oscillator criterion: "
-                        f"{exc}", comm=comm)
-        f1 = math.nan
-    if p.stability_analysis:
-        # A dense eigenvalue analysis: on large grids the longest part of the set-up.
-        cells = timestep.analysis_cells(p)
-        PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} cells ...",
-                        comm=comm)
-        t_analysis = time.perf_counter()
-        dt_discrete, patch = timestep.discrete_limit(comm, p, scheme)
-        PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f} s",
-                        comm=comm)
-    else:
-        dt_discrete, patch = math.nan, p.cells
-    limits = timestep.criteria(p, f1, dt_discrete, grid.h, S)
-    limits = {k: v for k, v in limits.items() if not math.isnan(v)}
-    stage.pop()
+    with PETSc.Log.Stage("Critical time steps"):
+        try:
+            f1 = fundamental_frequency(comm, p)
+        except NumericalError as exc:
+            # f1 only feeds the spring-mass criterion, which does not bound stability (see
+            # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
+            # reason to refuse the run, whose lumped masses are positive.
+            PETSc.Sys.Print(f"Note: no fundamental frequency, hence no oscillator "
+                            f"criterion: {exc}", comm=comm)
+            f1 = math.nan
+        if p.stability_analysis:
+            # A dense eigenvalue analysis: on large grids the longest part of the set-up.
+            cells = timestep.analysis_cells(p)
+            PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} "
+                            "cells ...", comm=comm)
+            t_analysis = time.perf_counter()
+            dt_discrete, patch = timestep.discrete_limit(comm, p, scheme)
+            PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f}"
+                            " s", comm=comm)
+        else:
+            dt_discrete, patch = math.nan, p.cells
+        limits = timestep.criteria(p, f1, dt_discrete, grid.h, S)
+        limits = {k: v for k, v in limits.items() if not math.isnan(v)}
     smallest = _governing(limits, scheme["drag"])
     # Rounded down to 3 significant digits: the limits come from iterative eigensolvers whose
     # last digits vary with the number of ranks, and the run should not.
@@ -318,8 +324,9 @@ def _run(p, comm, ctx) -> int:
                         comm=comm)
 
     model = TwoPhase(grid, points, p, bcs, scheme)
+    ctx.owned.append(model)
     q = load_scale(p)
-    scale = max(q, eigen.mixture_density(p) * p.gravity * H, 1.0)
+    scale = max(q, scene.mixture_density(p) * p.gravity * H, 1.0)
     files = {}
     series = _Series(p.output, comm)
     history = []          # (t, Tv, p/q at the monitor)
@@ -362,8 +369,6 @@ def _run(p, comm, ctx) -> int:
         summary["target"] = goal
     summary_path = p.summary or os.path.join(p.output, "summary.json")
     ctx.summary = summary
-    stage = PETSc.Log.Stage("Explicit steps")
-    stage.push()
     last_print = time.perf_counter()
     k = first - 1
     last_ckpt = time.perf_counter()
@@ -377,56 +382,59 @@ def _run(p, comm, ctx) -> int:
     # all written: in practice a failure in the reporting after the last step.
     ctx.save = lambda step: checkpoint.write(ckpt_path, comm, points, state(step), p)
     ctx.ckpt_path, ctx.start, ctx.whole = ckpt_path, first - 1, first - 1
-    ctx.cleanup = [stage.pop, stop.restore, lambda: np.seterr(**fp)]
+    ctx.cleanup = [stop.restore, lambda: np.seterr(**fp)]
     ctx.phase = "stepping"
     # The estimate of the time left counts the steps only, not the set-up before them.
     t_steps = time.perf_counter()
     try:
-        for k in range(first, nsteps + 1):
-            t = k * dt
-            ramp = 1.0 if p.load_ramp <= 0 else min(1.0, (k - 1) * dt / p.load_ramp)
-            ctx.whole = None             # mid-step: points and records disagree until the end
-            model.step(dt, ramp, p.damping, p.flip)
-            due = int(p.checkpoint_seconds > 0 and comm.getRank() == 0
-                      and time.perf_counter() - last_ckpt > p.checkpoint_seconds)
-            signal_seen, due = model.migrate_if_needed((stop.seen, due))
-            if k % 50 == 0 or k == nsteps or k in iso_steps:
-                model.check(k, t, scale)
-            if k % 10 == 0 or k in iso_steps:
-                history.append((t, cv * t / (H * H), _monitor(points, mpi) / q))
-                settlement.append((t, cv * t / (H * H), *surface.measure(points, mpi)))
-            if k in iso_steps:
-                prof = profile(points, comm)
-                if comm.getRank() == 0:
-                    profiles.append((iso_steps[k], t, prof))
-                if k in report_steps:
-                    reports.append(report(report_steps[k], t, points, mpi, p, monitor_height,
-                                           cv, c2, p0, depths))
-                    degree.append(surface.report(report_steps[k], settlement[-1], c2 / cv))
+        # The stage is popped however the loop ends (the handlers below run after it).
+        with PETSc.Log.Stage("Explicit steps"):
+            for k in range(first, nsteps + 1):
+                t = k * dt
+                ramp = 1.0 if p.load_ramp <= 0 else min(1.0, (k - 1) * dt / p.load_ramp)
+                ctx.whole = None         # mid-step: points and records disagree until the end
+                model.step(dt, ramp, p.damping, p.flip)
+                due = int(p.checkpoint_seconds > 0 and comm.getRank() == 0
+                          and time.perf_counter() - last_ckpt > p.checkpoint_seconds)
+                signal_seen, due = model.migrate_if_needed((stop.seen, due))
+                if k % 50 == 0 or k == nsteps or k in iso_steps:
+                    model.check(k, t, scale)
+                if k % 10 == 0 or k in iso_steps:
+                    history.append((t, cv * t / (H * H), _monitor(points, mpi) / q))
+                    settlement.append((t, cv * t / (H * H), *surface.measure(points, mpi)))
+                if k in iso_steps:
+                    prof = profile(points, comm)
                     if comm.getRank() == 0:
-                        files["settlement_csv"] = surface.write_csv(p.output, settlement,
-                                                                    c2 / cv)
-            if (p.output_every and k % p.output_every == 0) or k in report_steps:
-                series.write(points, k, t)
-            if signal_seen or due or (p.checkpoint_every and k % p.checkpoint_every == 0):
-                checkpoint.write(ckpt_path, comm, points, state(k), p)
-                last_ckpt = time.perf_counter()
-            if signal_seen:
-                raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} s); "
-                                  f"checkpoint {ckpt_path}; continue with "
-                                  f"-mpm_restart {ckpt_path}")
-            if p.progress and time.perf_counter() - last_print > p.progress:
-                last_print = time.perf_counter()
-                stepping = last_print - t_steps
-                PETSc.Sys.Print(f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), t = {t:.4g} s, "
-                                f"T_v = {cv * t / H ** 2:.4f}, p/q(monitor) = "
-                                f"{history[-1][2] if history else float('nan'):.4f}, "
-                                f"{last_print - t_wall:.0f} s elapsed, about "
-                                f"{stepping / (k - first + 1) * (nsteps - k):.0f} s left",
-                                comm=comm)
-            ctx.whole = k
+                        profiles.append((iso_steps[k], t, prof))
+                    if k in report_steps:
+                        reports.append(report(report_steps[k], t, points, mpi, p,
+                                              monitor_height, cv, c2, p0, depths))
+                        degree.append(surface.report(report_steps[k], settlement[-1],
+                                                     c2 / cv))
+                        if comm.getRank() == 0:
+                            files["settlement_csv"] = surface.write_csv(
+                                p.output, settlement, c2 / cv)
+                if (p.output_every and k % p.output_every == 0) or k in report_steps:
+                    series.write(points, k, t)
+                if (signal_seen or due
+                        or (p.checkpoint_every and k % p.checkpoint_every == 0)):
+                    checkpoint.write(ckpt_path, comm, points, state(k), p)
+                    last_ckpt = time.perf_counter()
+                if signal_seen:
+                    raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} s); "
+                                      f"checkpoint {ckpt_path}; continue with "
+                                      f"-mpm_restart {ckpt_path}")
+                if p.progress and time.perf_counter() - last_print > p.progress:
+                    last_print = time.perf_counter()
+                    stepping = last_print - t_steps
+                    PETSc.Sys.Print(f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), "
+                                    f"t = {t:.4g} s, T_v = {cv * t / H ** 2:.4f}, p/q(monitor) = "
+                                    f"{history[-1][2] if history else float('nan'):.4f}, "
+                                    f"{last_print - t_wall:.0f} s elapsed, about "
+                                    f"{stepping / (k - first + 1) * (nsteps - k):.0f} s left",
+                                    comm=comm)
+                ctx.whole = k
     except (NumericalError, Interrupted) as exc:
-        stage.pop()
         stop.restore()
         np.seterr(**fp)
         blew_up = isinstance(exc, NumericalError)
@@ -436,7 +444,6 @@ def _run(p, comm, ctx) -> int:
         if comm.getRank() == 0:
             output.write_json(summary_path, dict(summary, files={"summary": summary_path}))
         raise
-    stage.pop()
     stop.restore()
     np.seterr(**fp)
     ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import time
+from contextlib import ExitStack
 from typing import NamedTuple
 
 import numpy as np
@@ -18,8 +19,7 @@ from slepc4py import SLEPc
 
 from . import analytic, assembly, jacobi, memory, output, provenance
 from .errors import InputError, InternalError, NumericalError, agree, describe, entry
-from .grid import Grid
-from .points import place
+from .scene import boundary_conditions, build, destroy, mixture_density
 
 # Table 3 of the paper (Hz): the MP models of a 1 x 10 grid over the 0.1 m x 1 m column.
 PAPER_TABLE3 = {"q4": [16.92, 51.27, 87.24, 126.03, 168.95],
@@ -76,21 +76,7 @@ def zero_energy_diagnosis(p, freq, rod):
             "rigid-body motion that the boundary conditions (-mpm_bc_*) leave free")
 
 
-def mixture_density(p) -> float:
-    """Saturated density (1 - n) rho_s + n rho_l (kg/m3)."""
-    return (1 - p.porosity) * p.rho_s + p.porosity * p.rho_l
-
-
-def boundary_conditions(p) -> dict:
-    return {"left": p.bc_left, "right": p.bc_right, "bottom": p.bc_bottom, "top": p.bc_top}
-
-
-def build(comm, p, placement=None, ppc=None):
-    """Grid, points and the free-DOF K, M of the scene ``p`` (see :func:`assembly.stiffness_and_mass`)."""
-    grid = Grid(comm, p.element, p.cells, p.size)
-    points = place(grid, ppc or p.ppc, mixture_density(p), placement or p.points)
-    K, M, free = assembly.stiffness_and_mass(grid, points, p.E, p.nu, boundary_conditions(p))
-    return grid, points, K, M, free
+# The scene (grid, points, boundary conditions, densities) is built by solver.scene.
 
 
 class SlepcResult(NamedTuple):
@@ -227,12 +213,20 @@ def _write_failure(p, comm, ctx, error) -> str:
 
 
 def _analyse(p, comm, ctx) -> dict:
-    """The analysis itself (see :func:`run`); ``ctx`` follows it for the failure handler."""
+    """The analysis (see :func:`run`), which destroys the PETSc objects it made whether it
+    finishes or fails (the failure handler needs none of them)."""
+    with ExitStack() as owned:
+        return _analysis(p, comm, ctx, owned)
+
+
+def _analysis(p, comm, ctx, owned) -> dict:
+    """The analysis itself; ``ctx`` follows it for the failure handler, and what it makes
+    goes on ``owned`` (an ExitStack: destroyed last made, first)."""
     memory.check(p, comm)
-    stage = PETSc.Log.Stage("Assembly")
-    stage.push()
-    grid, points, K, M, free = build(comm, p)
-    stage.pop()
+    with PETSc.Log.Stage("Assembly"):
+        made = build(comm, p)
+    owned.callback(destroy, *reversed(made))
+    grid, points, K, M, free = made
     n = K.getSize()[0]
     if n == 0:
         raise InputError("-mpm_bc_*: every DOF is fixed; nothing left to vibrate")
@@ -253,14 +247,12 @@ def _analyse(p, comm, ctx) -> dict:
     rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
     warnings = []
     if "jacobi" in p.eigen_solver:
-        stage = PETSc.Log.Stage("Jacobi")
-        stage.push()
         try:
-            res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
+            with PETSc.Log.Stage("Jacobi"):
+                res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
         except jacobi.MassError as exc:
             raise NumericalError(mass_diagnosis(p, exc)) from None
-        finally:
-            stage.pop()
+        owned.callback(destroy, *res.vectors)
         freq["jacobi"], vecs["jacobi"] = frequencies(res.eigenvalues[:p.nmodes]), res.vectors
         # Modes at about 0 Hz (rigid-body motion) have no meaningful relative residual;
         # zero_energy_diagnosis below reports them.
@@ -285,12 +277,9 @@ def _analyse(p, comm, ctx) -> dict:
         except jacobi.MassError as exc:
             raise NumericalError(mass_diagnosis(p, exc).replace("Jacobi: ", "", 1)) from None
     if "slepc" in p.eigen_solver:
-        stage = PETSc.Log.Stage("SLEPc")
-        stage.push()
-        try:
+        with PETSc.Log.Stage("SLEPc"):
             res = slepc_solve(K, M, p.nmodes)
-        finally:
-            stage.pop()
+        owned.callback(destroy, *res.vectors)
         freq["slepc"], vecs["slepc"] = frequencies(res.values), res.vectors
         summary["slepc"] = {"seconds": res.seconds, "type": res.eps_type, "st": res.st_type}
         PETSc.Sys.Print(f"{res.label}: {res.seconds:.3f} s", comm=comm)
@@ -309,9 +298,13 @@ def _analyse(p, comm, ctx) -> dict:
 
     # References: the 1D rod and the plain FE model (Gauss points) of the same mesh.
     fe_ppc = 2 if p.element == "q4" else 3
-    _, _, Kg, Mg, _ = build(comm, p, placement="gauss", ppc=fe_ppc)
+    gauss = build(comm, p, placement="gauss", ppc=fe_ppc)
+    owned.callback(destroy, *reversed(gauss))
+    _, _, Kg, Mg, _ = gauss
     # Its own options prefix: -eps_* tune the main solve above, -fe_eps_* this one.
-    fe = frequencies(slepc_solve(Kg, Mg, p.nmodes, prefix="fe_").values)
+    res = slepc_solve(Kg, Mg, p.nmodes, prefix="fe_")
+    destroy(*res.vectors)
+    fe = frequencies(res.values)
     refs = {"rod_hz": rod, "fe_gauss_hz": fe}
     if is_paper_scene(p):
         refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]
@@ -323,8 +316,6 @@ def _analyse(p, comm, ctx) -> dict:
     ctx["phase"] = "writing"     # the last collectives come first in it: ranks can agree
     summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
                                       freq.get("jacobi", freq.get("slepc")), rod, summary)
-    for obj in (K, M, Kg, Mg, free):
-        obj.destroy()
     return summary
 
 

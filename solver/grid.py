@@ -70,6 +70,18 @@ class Grid:
         (self.xs, self.xe), (self.ys, self.ye) = self.da.getRanges()
         (self.gxs, self.gys), (self.gxm, self.gym) = self.da.getGhostCorners()
 
+    # -- lifetime: the grid owns its DMDA (and the DMDA its coordinates) ------------------
+    def destroy(self):
+        """Destroy the DMDA (and its coordinate Vec); the grid is unusable afterwards.
+        Objects made from it (TwoPhase's duplicates, Vecs) are their owners' to destroy."""
+        self.da.destroy()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.destroy()
+
     # -- cells ---------------------------------------------------------------------------
     def owned_cells(self):
         """Indices (cx, cy) of the cells this rank owns, each of shape (nc,)."""

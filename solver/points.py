@@ -100,8 +100,15 @@ class MaterialPoints:
         self.swarm.migrate(remove_sent_points=True)
 
     def destroy(self):
+        """Destroy the swarm; the fields' arrays from views() are invalid afterwards."""
         self._invalidate()
         self.swarm.destroy()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.destroy()
 
 
 def place(grid, ppc: int, rho: float, placement: str = "uniform", fields=None):

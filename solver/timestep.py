@@ -21,7 +21,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import analytic, assembly
-from .eigen import boundary_conditions, mixture_density
+from .scene import boundary_conditions, mixture_density
 
 G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defined
 
@@ -128,17 +128,14 @@ def _limit_on(p, scheme, cells, estimate=None) -> float:
     from .points import place
 
     size = tuple(L * c / n for L, c, n in zip(p.size, cells, p.cells))
-    grid = Grid(PETSc.COMM_SELF, p.element, cells, size)
-    points = place(grid, p.ppc, mixture_density(p), "uniform")
-    try:
+    with Grid(PETSc.COMM_SELF, p.element, cells, size) as grid, \
+            place(grid, p.ppc, mixture_density(p), "uniform") as points:
         S = scheme["mass_scaling"]
         guess = min(grid.h) / wave_speeds(p, S)["c1"]
         if scheme["drag"] == "explicit":
             guess = min(2 / drag_rate(p, S), guess)
         return _bisect_limit(_linear_parts(grid, points, p, scheme), p.flip, guess,
                              estimate=estimate)
-    finally:
-        points.destroy()
 
 
 def viscous_factor(b1: float) -> float:

@@ -63,7 +63,8 @@ from petsc4py import PETSc
 from . import assembly, kernels, shapes
 from .errors import NumericalError
 from .kernels import NB, NF, NG
-from .timestep import drag_coefficient, impermeable, mixture_density, wave_speeds
+from .scene import mixture_density
+from .timestep import drag_coefficient, impermeable, wave_speeds
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
 POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
@@ -104,12 +105,8 @@ def compile_kernels(element: str, scheme) -> dict:
     """Compile (first run on a machine) or load from the disk cache the step's kernels for
     a cell type and scheme, once per process, timed by the MPMCompile log event; returns
     :func:`solver.kernels.warm_up`'s record (seconds, compiled, loaded)."""
-    ev = _event("MPMCompile")
-    ev.begin()
-    try:
+    with _event("MPMCompile"):
         return kernels.warm_up(*kernel_variant(element, scheme))
-    finally:
-        ev.end()
 
 
 def compile_defaults() -> None:
@@ -286,6 +283,27 @@ class TwoPhase:
             self.loc_p, self.glob_p = self.da_p.createLocalVec(), self.da_p.createGlobalVec()
             self._pn, self._pg = self.loc_p.getArray(), self.glob_p.getArray()
 
+    # -- lifetime ---------------------------------------------------------------------------
+    def destroy(self):
+        """Destroy the PETSc objects this model made (on several ranks the nodal DMDAs and
+        their Vecs; on one rank there are none) and drop the kernels' addresses into them.
+        The grid and the points are the caller's: it destroys them after this."""
+        for name in ("loc_f", "glob_f", "loc_g", "glob_g", "loc_p", "glob_p",
+                     "da_f", "da_g", "da_p"):
+            obj = self.__dict__.pop(name, None)
+            if obj is not None:
+                obj.destroy()
+        # The arrays were views of the Vecs' storage; the context held their addresses.
+        self._Gl = self._G = self._O = self._Og = self._pn = self._pg = None
+        self._C = None
+        self._gen = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.destroy()
+
     def _prepare(self):
         """The point fields' addresses for the kernels (after creation, a migration or a
         resize); nothing when the swarm is unchanged."""
@@ -328,27 +346,27 @@ class TwoPhase:
         dt, load_factor, damping, flip = float(dt), float(load_factor), float(damping), \
             float(flip)
         off, C = self._off, self._C
-        self.ev_p2g.begin()
-        kernels.points_to_grid(off, C, self._hrz, self._blend)
-        if not self.serial:
-            self.glob_f.zeroEntries()
-            self.da_f.localToGlobal(self.loc_f, self.glob_f, addv=PETSc.InsertMode.ADD_VALUES)
-        self.ev_p2g.end()
+        # Events as with blocks: ended also when a PETSc call raises (as cheap as
+        # begin/end: one method call each way).
+        with self.ev_p2g:
+            kernels.points_to_grid(off, C, self._hrz, self._blend)
+            if not self.serial:
+                self.glob_f.zeroEntries()
+                self.da_f.localToGlobal(self.loc_f, self.glob_f,
+                                        addv=PETSc.InsertMode.ADD_VALUES)
 
-        self.ev_nodal.begin()
-        kernels.nodal_update(C, dt, load_factor, damping)
-        if not self.serial:
-            self.da_g.globalToLocal(self.glob_g, self.loc_g)
-        self.ev_nodal.end()
+        with self.ev_nodal:
+            kernels.nodal_update(C, dt, load_factor, damping)
+            if not self.serial:
+                self.da_g.globalToLocal(self.glob_g, self.loc_g)
 
-        self.ev_g2p.begin()
-        if self.serial:
-            kernels.grid_to_points_serial(off, C, self._hrz, self._blend, dt, flip)
-        else:
-            kernels.grid_to_points(off, C, self._hrz, self._blend, dt, flip)
-            if self.project:
-                self._project()
-        self.ev_g2p.end()
+        with self.ev_g2p:
+            if self.serial:
+                kernels.grid_to_points_serial(off, C, self._hrz, self._blend, dt, flip)
+            else:
+                kernels.grid_to_points(off, C, self._hrz, self._blend, dt, flip)
+                if self.project:
+                    self._project()
 
     def _project(self):
         """Several ranks: the pressure projection's nodal sums over the ranks, the division
@@ -405,28 +423,27 @@ class TwoPhase:
         ``flags`` are small integers every rank contributes; their maxima over the ranks
         come back (a sequence of as many), so that decisions such as stopping are taken
         together in the same reduction."""
-        self.ev_migrate.begin()
-        if self.serial:
-            # The maxima over one rank are the flags themselves (no array: this is per step).
-            self.ev_migrate.end()
-            return flags
-        self._prepare()
-        # A point stays when its cell, floor(x / h) clipped to the grid as Grid.locate
-        # computes it, is in this rank's box (kernels.leaving).
-        if self._flags is None or len(self._flags) != 1 + len(flags):
-            self._flags = np.empty(1 + len(flags), dtype=np.int64)
-            self._flags_out = np.empty(1 + len(flags), dtype=np.int64)
-        self._flags[0] = kernels.leaving(self._C)
-        self._flags[1:] = flags
-        from mpi4py import MPI
+        with self.ev_migrate:
+            if self.serial:
+                # The maxima over one rank are the flags themselves (no array: this is
+                # per step).
+                return flags
+            self._prepare()
+            # A point stays when its cell, floor(x / h) clipped to the grid as Grid.locate
+            # computes it, is in this rank's box (kernels.leaving).
+            if self._flags is None or len(self._flags) != 1 + len(flags):
+                self._flags = np.empty(1 + len(flags), dtype=np.int64)
+                self._flags_out = np.empty(1 + len(flags), dtype=np.int64)
+            self._flags[0] = kernels.leaving(self._C)
+            self._flags[1:] = flags
+            from mpi4py import MPI
 
-        self.mpi.Allreduce(self._flags, self._flags_out, op=MPI.MAX)
-        out = self._flags_out.copy()
-        if out[0]:
-            cx, cy, _, _ = self.grid.locate(self.xref)
-            self.points.migrate(self.grid.cell_owner(cx, cy))
-        self.ev_migrate.end()
-        return out[1:]
+            self.mpi.Allreduce(self._flags, self._flags_out, op=MPI.MAX)
+            out = self._flags_out.copy()
+            if out[0]:
+                cx, cy, _, _ = self.grid.locate(self.xref)
+                self.points.migrate(self.grid.cell_owner(cx, cy))
+            return out[1:]
 
 
 if __name__ == "__main__":

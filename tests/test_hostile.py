@@ -169,7 +169,7 @@ def test_non_finite_values_are_caught():
     import numpy as np
     from petsc4py import PETSc
 
-    from solver import assembly, eigen, options
+    from solver import assembly, options, scene
     from solver.errors import NumericalError
     from solver.grid import Grid
     from solver.points import place
@@ -184,11 +184,11 @@ def test_non_finite_values_are_caught():
     finally:
         db.delValue("mpm_analysis")
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", point_fields(p))
+    points = place(grid, p.ppc, scene.mixture_density(p), "uniform", point_fields(p))
     with points.fields("J", "id") as (J, ids):
         J[:] = 1.0
         ids[:] = np.arange(len(ids))
-    model = TwoPhase(grid, points, p, eigen.boundary_conditions(p),
+    model = TwoPhase(grid, points, p, scene.boundary_conditions(p),
                      assembly.step_scheme(p))
     model.check(1, 0.0, 1e4)                      # a sound state passes
     with points.fields("p") as pp:

@@ -31,15 +31,15 @@ def _consistent_errors(s):
 
 # -- implicit drag: Darcy's law -------------------------------------------------------------
 def _model(**opts):
-    from solver import assembly, eigen, twophase
+    from solver import assembly, scene, twophase
     from solver.grid import Grid
     from solver.points import place
     from test_step_reference import _params
 
     p = _params(**opts)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), p.points, twophase.point_fields(p))
-    model = twophase.TwoPhase(grid, points, p, eigen.boundary_conditions(p),
+    points = place(grid, p.ppc, scene.mixture_density(p), p.points, twophase.point_fields(p))
+    model = twophase.TwoPhase(grid, points, p, scene.boundary_conditions(p),
                               assembly.step_scheme(p))
     return p, grid, points, model
 

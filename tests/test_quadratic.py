@@ -114,7 +114,7 @@ def test_other_soils(runs, soil, element):
 def _linearised(element, cells, **scheme):
     from petsc4py import PETSc
 
-    from solver import assembly, eigen, options, timestep
+    from solver import assembly, options, scene, timestep
     from solver.grid import Grid
     from solver.points import place
 
@@ -128,7 +128,7 @@ def _linearised(element, cells, **scheme):
         for key in given:
             db.delValue("mpm_" + key)
     grid = Grid(PETSc.COMM_SELF, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform")
+    points = place(grid, p.ppc, scene.mixture_density(p), "uniform")
     try:
         return p, timestep._linear_step(grid, points, p, assembly.step_scheme(p))
     finally:

@@ -20,7 +20,7 @@ import pytest
 from conftest import check_ok
 from petsc4py import PETSc
 
-from solver import assembly, eigen, kernels, options, twophase
+from solver import assembly, kernels, options, scene, twophase
 from solver.grid import Grid
 from solver.points import place
 from solver.timestep import impermeable, mixture_density, wave_speeds
@@ -219,9 +219,9 @@ def test_step_matches_reference(opts):
         pytest.skip("serial reference")
     p = _params(**opts)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, eigen.mixture_density(p), "uniform", twophase.point_fields(p))
+    points = place(grid, p.ppc, scene.mixture_density(p), "uniform", twophase.point_fields(p))
     scheme = assembly.step_scheme(p)
-    bcs = eigen.boundary_conditions(p)
+    bcs = scene.boundary_conditions(p)
     rng = np.random.default_rng(7)
     with points.fields("x", "x0", "vs", "vl", "stress", "p", "J") as (x, x0, vs, vl, sig, pp,
                                                                        J):

@@ -1,0 +1,76 @@
+"""Every PETSc object the set-up makes has an owner that destroys it (issue 12)."""
+
+from __future__ import annotations
+
+import pytest
+from petsc4py import PETSc
+
+from solver import assembly, options, scene
+from solver.grid import Grid
+from solver.twophase import TwoPhase
+
+
+def _params(**given):
+    db = PETSc.Options()
+    given = dict(analysis="consolidation", **given)
+    for key, value in given.items():
+        db.setValue("mpm_" + key, str(value))
+    try:
+        return options.read(db=db)
+    finally:
+        for key in given:
+            db.delValue("mpm_" + key)
+
+
+def test_build_returns_what_destroy_destroys():
+    made = scene.build(PETSc.COMM_WORLD, _params())
+    grid, points, K, M, free = made
+    assert K.handle and M.handle and free.handle and grid.da.handle
+    scene.destroy(*reversed(made))
+    assert not (K.handle or M.handle or free.handle or grid.da.handle or points.swarm.handle)
+
+
+def test_a_failed_build_destroys_what_it_made(monkeypatch):
+    made = []
+    real = Grid.destroy
+
+    def destroy(self):
+        made.append(self)
+        real(self)
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("assembly failed")
+
+    monkeypatch.setattr(Grid, "destroy", destroy)
+    monkeypatch.setattr(assembly, "stiffness_and_mass", fail)
+    with pytest.raises(RuntimeError, match="assembly failed"):
+        scene.build(PETSc.COMM_WORLD, _params())
+    assert len(made) == 1 and not made[0].da.handle
+
+
+def test_two_phase_body_and_model_as_with_blocks():
+    p = _params()
+    grid, points = scene.two_phase_body(PETSc.COMM_WORLD, p)
+    with grid, points, TwoPhase(grid, points, p, scene.boundary_conditions(p),
+                                assembly.step_scheme(p)) as model:
+        x, x0, J, ids = points.get("x", "x0", "J", "id")
+        assert (x == x0).all() and (J == 1).all()
+        # ids number the points 0 .. n - 1 over all ranks, once each.
+        every = sorted(int(i) for part in PETSc.COMM_WORLD.tompi4py().allgather(list(ids))
+                       for i in part)
+        assert every == list(range(points.n_global))
+        model.step(1e-7, 1.0, p.damping, p.flip)
+    assert not grid.da.handle and not points.swarm.handle
+    assert model._C is None
+
+
+def test_stage_is_popped_when_its_block_raises():
+    # A stage left pushed would nest every later stage under it in -log_view; the with
+    # block pops it, and a second with block of the same stage then works as the first.
+    stage = PETSc.Log.Stage("test_lifetimes")
+    for _ in range(2):
+        with pytest.raises(ValueError):
+            with stage:
+                raise ValueError
+    with stage:
+        pass
