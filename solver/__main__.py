@@ -45,14 +45,16 @@ def _rank() -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    argv = list(sys.argv if argv is None else argv)
+def _scan_options_files(argv) -> tuple:
+    """(where each option of the -options_file files is set, None), the files checked
+    before PETSc reads them; (the options so far, exit code 2) after the error line for a
+    missing name or file, or a malformed file."""
     origins = {}
     for flag, path in _options_files(argv):
         if path is None or path.startswith("-"):
-            return _fail(f"{flag}: needs a file name", 2, _rank())
+            return origins, _fail(f"{flag}: needs a file name", 2, _rank())
         if not os.path.isfile(path):
-            return _fail(f"{flag} {path}: no such file", 2, _rank())
+            return origins, _fail(f"{flag} {path}: no such file", 2, _rank())
         if flag == "-options_file":
             from .errors import InputError
             from .options import scan_file
@@ -60,7 +62,15 @@ def main(argv=None) -> int:
             try:
                 origins.update(scan_file(path))
             except InputError as exc:
-                return _fail(str(exc), 2, _rank())
+                return origins, _fail(str(exc), 2, _rank())
+    return origins, None
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv if argv is None else argv)
+    origins, code = _scan_options_files(argv)
+    if code is not None:
+        return code
     scene_analysis = _value_at(origins["analysis"]) if "analysis" in origins else None
     for arg in argv:                # the command line overrides the files
         if arg.startswith("-mpm_"):

@@ -202,36 +202,148 @@ class _Failure:
 
 
 def _run(p, comm, ctx) -> int:
-    """The run itself (see :func:`run`); ``ctx`` follows it for the failure handler."""
+    """The run itself (see :func:`run`): :func:`_set_up`, :func:`_time_loop` and
+    :func:`_finish`; ``ctx`` follows it for the failure handler."""
     ctx.summary_path = p.summary or os.path.join(p.output, "summary.json")
+    s = _set_up(p, comm, ctx)
+    p = s.p
+    model = TwoPhase(s.grid, s.points, p, scene.boundary_conditions(p), s.scheme)
+    ctx.owned.append(model)
+    reporting = _Reporting(s, comm)
+    stop = _Signals()
+    # A blow-up overflows before the periodic check names it in one line; NumPy's warnings
+    # would only precede that line on stderr.
+    fp = np.seterr(over="ignore", invalid="ignore")
+    summary = _summary(s, comm)
+    ctx.summary = summary
+    state, ckpt_path = s.state, os.path.join(p.output, "checkpoint.npz")
+    # After a failure a checkpoint holds the last step whose points, reports and fields are
+    # all written: in practice a failure in the reporting after the last step.
+    ctx.save = lambda step: checkpoint.write(
+        ckpt_path, comm, s.points, dataclasses.replace(state, step=step).to_dict(), p)
+    ctx.ckpt_path, ctx.start, ctx.whole = ckpt_path, state.step, state.step
+    ctx.cleanup = [stop.restore, lambda: np.seterr(**fp)]
+    ctx.phase = "stepping"
+    _time_loop(s, model, reporting, stop, ckpt_path, comm, ctx)
+    stop.restore()
+    np.seterr(**fp)
+    ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
+    return _finish(s, reporting, summary, comm)
+
+
+@dataclasses.dataclass
+class RunState:
+    """The state of a run besides its points: exactly what a checkpoint stores
+    (:meth:`to_dict`, the ``state`` of :func:`checkpoint.write`) and a restart loads
+    (:meth:`from_dict`). ``step`` is the last step whose points and records agree."""
+
+    step: int = 0
+    dt: float = math.nan
+    mass_scaling: float = 1.0
+    history: list = dataclasses.field(default_factory=list)     # (t, Tv, p/q at the monitor)
+    reports: list = dataclasses.field(default_factory=list)     # report() at the report times
+    profiles: list = dataclasses.field(default_factory=list)    # (Tv, t, profile()), rank 0
+    series: list = dataclasses.field(default_factory=list)      # the field series' entries
+    settlement: list = dataclasses.field(default_factory=list)  # (t, Tv, s (m), mean p (Pa))
+    degree: list = dataclasses.field(default_factory=list)      # degree of consolidation
+
+    def to_dict(self) -> dict:
+        """The state as a checkpoint stores it (JSON after :func:`output._jsonable`)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, st: dict, mass_scaling: float) -> "RunState":
+        """The state of a checkpoint's ``st``; ``mass_scaling`` where it holds none (auto
+        depends on the earliest report time, which a restart may change: a restart keeps
+        the factor the run started with)."""
+        return cls(step=st["step"], dt=st["dt"],
+                   mass_scaling=st.get("mass_scaling", mass_scaling),
+                   history=[tuple(h) for h in st["history"]], reports=st["reports"],
+                   profiles=[(a, b, np.array(c)) for a, b, c in st["profiles"]],
+                   series=st["series"], settlement=[tuple(r) for r in st.get("settlement", [])],
+                   degree=st.get("degree", []))
+
+
+@dataclasses.dataclass
+class Setup:
+    """What the time loop and the reporting need from :func:`_set_up`."""
+
+    p: object                  # the options, as validated (and as a target error picked)
+    scheme: dict               # assembly.step_scheme, with the run's mass scaling
+    goal: dict | None          # the target error's pick, or None
+    t_wall: float              # when the set-up proper started (perf_counter)
+    grid: object
+    points: object
+    state: RunState            # at the first step: a fresh run's, or a restart's
+    restarted: bool = False
+    monitor_height: float = math.nan
+    f1: float = math.nan
+    limits: dict = dataclasses.field(default_factory=dict)    # critical time steps (s)
+    smallest: str = ""
+    exceeded: list = dataclasses.field(default_factory=list)
+    regime: dict = dataclasses.field(default_factory=dict)
+    warn: str = ""
+    cv: float = math.nan
+    c2: float = math.nan
+    p0: float = math.nan
+    nsteps: int = 0
+    report_steps: dict = dataclasses.field(default_factory=dict)   # step: Tv
+    iso_steps: dict = dataclasses.field(default_factory=dict)      # step: Tv
+
+    @property
+    def dt(self) -> float:
+        return self.state.dt
+
+
+def _set_up(p, comm, ctx) -> Setup:
+    """Everything before the first step, printed as it goes: the options' checks, a target
+    error's pick, the body (owned by ``ctx``), a restart's points and state, the monitor
+    point, the critical time steps and the step counts."""
     p, notes = _validate(p)
     for note in notes:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
-    goal = None
-    if not math.isnan(p.target_error):
-        choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
-        p = workprecision.apply(p, choice)
-        PETSc.Sys.Print("\n".join(lines), comm=comm)
-        goal = {"target_pct": p.target_error, "picked": {k: choice[k] for k in
-                                                          workprecision.PICKED},
-                  "measured_pct": choice["measure"], "why": lines}
+    p, goal = _target(p, comm)
     scheme = assembly.step_scheme(p)
     memory.check(p, comm)          # a model that does not fit says so first
     _check_feasible(p, scheme)
     t_wall = time.perf_counter()
-    mpi = comm.tompi4py()
-    from mpi4py import MPI
-
-    H = p.size[1]
-    bcs = scene.boundary_conditions(p)
-    S = scheme["mass_scaling"]
     grid, points = scene.two_phase_body(comm, p)
     ctx.owned += [grid, points]
     restart = checkpoint.read(p.restart, p) if p.restart else None
     if restart is not None:
-        # auto depends on the earliest report time, which a restart may change: keep the
-        # factor the run started with (the signature has checked everything else).
-        S = scheme["mass_scaling"] = restart[2].get("mass_scaling", S)
+        state = RunState.from_dict(restart[2], scheme["mass_scaling"])
+        scheme["mass_scaling"] = state.mass_scaling
+    else:
+        state = RunState(mass_scaling=scheme["mass_scaling"])
+    s = Setup(p, scheme, goal, t_wall, grid, points, state, restarted=restart is not None)
+    s.monitor_height = _monitor_height(points, p, comm.tompi4py())
+    if restart is not None:
+        checkpoint.scatter(points, grid, restart[0], restart[1],
+                           "x0" if scheme["kinematics"] == "small" else "x")
+    _time_step(s, comm)
+    _plan(s, comm)
+    return s
+
+
+def _target(p, comm) -> tuple:
+    """(the options, the goal) of -mpm_target_error: the pick's options, printed, and what
+    the summary says of it; (p, None) without one."""
+    if math.isnan(p.target_error):
+        return p, None
+    choice, lines = workprecision.pick(p, p.target_error, p.work_precision)
+    p = workprecision.apply(p, choice)
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
+    return p, {"target_pct": p.target_error, "picked": {k: choice[k] for k in
+                                                         workprecision.PICKED},
+               "measured_pct": choice["measure"], "why": lines}
+
+
+def _monitor_height(points, p, mpi) -> float:
+    """Mark the monitor points (the row nearest -mpm_monitor_height, or the highest below
+    mid-height) in the field ``monitor``; returns their height y0 (collective)."""
+    from mpi4py import MPI
+
+    H = p.size[1]
     with points.fields("x0", "monitor") as (x0, mon):
         y0 = x0[:, 1]
         if math.isnan(p.monitor_height):
@@ -243,12 +355,13 @@ def _run(p, comm, ctx) -> int:
             cand = near if abs(abs(near - p.monitor_height) - dist) < 1e-12 * H else -np.inf
             target = mpi.allreduce(cand, op=MPI.MAX)
         mon[:] = np.abs(y0 - target) < 1e-9 * H
-    monitor_height = float(target)
-    if restart is not None:
-        checkpoint.scatter(points, grid, restart[0], restart[1],
-                           "x0" if scheme["kinematics"] == "small" else "x")
+    return float(target)
 
-    # Critical time steps.
+
+def _critical_steps(s, comm) -> tuple:
+    """(f1, the critical time steps, the patch of the stability analysis), in the log
+    stage "Critical time steps"."""
+    p, S = s.p, s.state.mass_scaling
     with PETSc.Log.Stage("Critical time steps"):
         try:
             f1 = fundamental_frequency(comm, p)
@@ -265,24 +378,33 @@ def _run(p, comm, ctx) -> int:
             PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} "
                             "cells ...", comm=comm)
             t_analysis = time.perf_counter()
-            dt_discrete, patch = timestep.discrete_limit(comm, p, scheme)
+            dt_discrete, patch = timestep.discrete_limit(comm, p, s.scheme)
             PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f}"
                             " s", comm=comm)
         else:
             dt_discrete, patch = math.nan, p.cells
-        limits = timestep.criteria(p, f1, dt_discrete, grid.h, S)
+        limits = timestep.criteria(p, f1, dt_discrete, s.grid.h, S)
         limits = {k: v for k, v in limits.items() if not math.isnan(v)}
+    return f1, limits, patch
+
+
+def _time_step(s, comm):
+    """The critical time steps (printed) and the step dt (a restart's own), into ``s``;
+    InputError for a step far beyond the stability limit, a warning for one beyond any."""
+    p, scheme, S = s.p, s.scheme, s.state.mass_scaling
+    s.f1, limits, patch = _critical_steps(s, comm)
     smallest = _governing(limits, scheme["drag"])
     # Rounded down to 3 significant digits: the limits come from iterative eigensolvers whose
     # last digits vary with the number of ranks, and the run should not.
     dt = p.dt if not math.isnan(p.dt) else _round_down(p.dt_safety * limits[smallest], 3)
-    if restart is not None:
-        dt = restart[2]["dt"]
+    if s.restarted:
+        dt = s.state.dt
+    s.state.dt = dt
     exceeded = [k for k, v in timestep.applicable(limits, scheme["drag"]).items() if dt > v]
     speeds = timestep.wave_speeds(p, S)
-    _print_limits(comm, limits, dt, smallest, speeds, f1, p, patch, scheme)
-    regime = inertia.regime(p, S)
-    PETSc.Sys.Print(inertia.describe(regime), comm=comm)
+    _print_limits(comm, limits, dt, smallest, speeds, s.f1, p, patch, scheme)
+    s.regime = inertia.regime(p, S)
+    PETSc.Sys.Print(inertia.describe(s.regime), comm=comm)
     stability = timestep.stability_limits(limits, scheme["drag"])
     worst = max(stability, key=lambda k: dt / stability[k])
     if dt > 2 * stability[worst] and not p.allow_unstable:
@@ -295,27 +417,35 @@ def _run(p, comm, ctx) -> int:
                + ("" if set(exceeded) <= {"oscillator", "cfl", "diffusion"}
                   else ": expect the run to blow up"))
         PETSc.Sys.Print("!" * len(msg) + "\n" + msg + "\n" + "!" * len(msg), comm=comm)
+    s.limits, s.smallest, s.exceeded = limits, smallest, exceeded
 
-    cv, c2, p0 = references(p)
+
+def _plan(s, comm):
+    """The references, the number of steps and the report and isochrone steps, into ``s``
+    (printed with the scheme); InputError for a run that would not finish."""
+    p, dt, scheme, H = s.p, s.dt, s.scheme, s.p.size[1]
+    s.cv, s.c2, s.p0 = references(p)
+    cv = s.cv
     t_end = p.Tv_end * H * H / cv
     if not t_end / dt < MAX_STEPS:
         raise InputError(f"-mpm_Tv_end {p.Tv_end}: {t_end / dt:.3g} steps of {dt:.3g} s; "
                          f"more than {MAX_STEPS:.0e} is not a run that finishes")
-    warn = inertia.warning(regime)
-    if warn:
-        PETSc.Sys.Print(warn, comm=comm)
-    nsteps = int(math.ceil(t_end / dt - 1e-9))
-    report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in p.Tv_report}
-    iso_steps = {int(round(tv * H * H / (cv * dt))): tv
-                 for tv in sorted(set(ISOCHRONES) | set(p.Tv_report)) if tv <= p.Tv_end + 1e-12}
+    s.warn = inertia.warning(s.regime)
+    if s.warn:
+        PETSc.Sys.Print(s.warn, comm=comm)
+    s.nsteps = nsteps = int(math.ceil(t_end / dt - 1e-9))
+    s.report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in p.Tv_report}
+    s.iso_steps = {int(round(tv * H * H / (cv * dt))): tv
+                   for tv in sorted(set(ISOCHRONES) | set(p.Tv_report))
+                   if tv <= p.Tv_end + 1e-12}
     PETSc.Sys.Print(f"Consolidation: {p.element.upper()}, {p.cells[0]} x {p.cells[1]} cells, "
-                    f"{points.n_global} material points, {comm.getSize()} rank(s); "
+                    f"{s.points.n_global} material points, {comm.getSize()} rank(s); "
                     f"c_v = {cv:.4g} m2/s, T_v = {p.Tv_end} at t = {t_end:.4g} s: "
-                    f"{nsteps} steps of {dt:.4g} s; monitor at y = {monitor_height:.5g} m\n"
+                    f"{nsteps} steps of {dt:.4g} s; monitor at y = {s.monitor_height:.5g} m\n"
                     f"Scheme: {scheme['kinematics']} kinematics, lumping {scheme['lumping']}, "
                     f"liquid basis {scheme['liquid_basis']}, pressure projection "
                     f"{scheme['pressure_projection']}, {scheme['drag']} drag, mass scaling "
-                    f"S = {S:.4g} ({p.mass_scaling})", comm=comm)
+                    f"S = {s.state.mass_scaling:.4g} ({p.mass_scaling})", comm=comm)
     if p.element != "q4" and p.ppc < 3:
         # Measured on 1 x 20 cells (docs/studies.md): Q9 with 2 x 2 points was 10 % off
         # Terzaghi (0.4 % with 3 x 3); Q8's stable time step shrank a hundredfold.
@@ -323,73 +453,43 @@ def _run(p, comm, ctx) -> int:
                         "under-integrate the quadratic fields: use -mpm_ppc 3 or more",
                         comm=comm)
 
-    model = TwoPhase(grid, points, p, bcs, scheme)
-    ctx.owned.append(model)
-    q = load_scale(p)
-    scale = max(q, scene.mixture_density(p) * p.gravity * H, 1.0)
-    files = {}
-    series = _Series(p.output, comm)
-    history = []          # (t, Tv, p/q at the monitor)
-    surface = _Surface(grid, p)
-    depths = Depths(H)
-    depths.refresh(points)
-    settlement = []       # (t, Tv, surface settlement (m), mean p (Pa)), as history
-    degree = []           # the degree of consolidation at the report times
-    reports, profiles = [], []
-    first = 1
-    if restart is not None:
-        st = restart[2]
-        first = st["step"] + 1
-        history = [tuple(h) for h in st["history"]]
-        reports = st["reports"]
-        profiles = [(a, b, np.array(c)) for a, b, c in st["profiles"]]
-        settlement = [tuple(r) for r in st.get("settlement", [])]
-        degree = st.get("degree", [])
-        series.resume(st["series"])
-        PETSc.Sys.Print(f"Restart from {p.restart} at step {st['step']} "
-                        f"(t = {st['step'] * dt:.6g} s)", comm=comm)
-    ckpt_path = os.path.join(p.output, "checkpoint.npz")
-    stop = _Signals()
-    # A blow-up overflows before the periodic check names it in one line; NumPy's warnings
-    # would only precede that line on stderr.
-    fp = np.seterr(over="ignore", invalid="ignore")
+
+def _summary(s, comm) -> dict:
+    """The summary before the first step (collective: the provenance)."""
+    p = s.p
     summary = {"analysis": "consolidation", "ranks": comm.getSize(), "element": p.element,
-               "cells": list(p.cells), "ppc": p.ppc, "n_points": points.n_global,
-               "steps": 0, "dt": dt, "wall_seconds": 0.0, "stable": True,
-               "dt_critical": limits, "dt_governing": smallest, "dt_exceeds": exceeded,
-               **scheme, "damping": p.damping, "bulk_viscosity": p.bulk_viscosity,
-               "fast_damping": p.fast_damping, "flip": p.flip,
-               "f1_hz": f1, "c_v": cv, "c2": c2,
-               "p0_consistent_over_q": p0, "regime": regime,
+               "cells": list(p.cells), "ppc": p.ppc, "n_points": s.points.n_global,
+               "steps": 0, "dt": s.dt, "wall_seconds": 0.0, "stable": True,
+               "dt_critical": s.limits, "dt_governing": s.smallest,
+               "dt_exceeds": s.exceeded, **s.scheme, "damping": p.damping,
+               "bulk_viscosity": p.bulk_viscosity, "fast_damping": p.fast_damping,
+               "flip": p.flip, "f1_hz": s.f1, "c_v": s.cv, "c2": s.c2,
+               "p0_consistent_over_q": s.p0, "regime": s.regime,
                "scene": workprecision.scene_signature(p),
                "provenance": provenance.collect(comm, p)}
-    if warn:
-        summary["warnings"] = [warn]
-    if goal is not None:
-        summary["target"] = goal
-    summary_path = p.summary or os.path.join(p.output, "summary.json")
-    ctx.summary = summary
-    last_print = time.perf_counter()
+    if s.warn:
+        summary["warnings"] = [s.warn]
+    if s.goal is not None:
+        summary["target"] = s.goal
+    return summary
+
+
+def _time_loop(s, model, reporting, stop, ckpt_path, comm, ctx):
+    """The explicit steps after the state's step to ``s.nsteps``: step, check, hand the
+    results to ``reporting`` at its steps, checkpoint, stop on a signal, print progress.
+    A NumericalError or Interrupted writes the summary so far (rank 0) and is raised on."""
+    p, dt, state = s.p, s.dt, s.state
+    H = p.size[1]
+    scale = max(load_scale(p), scene.mixture_density(p) * p.gravity * H, 1.0)
+    first = state.step + 1
     k = first - 1
-    last_ckpt = time.perf_counter()
-
-    def state(step):
-        return {"step": step, "dt": dt, "mass_scaling": S, "history": history,
-                "reports": reports, "profiles": profiles, "series": series.entries,
-                "settlement": settlement, "degree": degree}
-
-    # After a failure a checkpoint holds the last step whose points, reports and fields are
-    # all written: in practice a failure in the reporting after the last step.
-    ctx.save = lambda step: checkpoint.write(ckpt_path, comm, points, state(step), p)
-    ctx.ckpt_path, ctx.start, ctx.whole = ckpt_path, first - 1, first - 1
-    ctx.cleanup = [stop.restore, lambda: np.seterr(**fp)]
-    ctx.phase = "stepping"
+    last_print = last_ckpt = time.perf_counter()
     # The estimate of the time left counts the steps only, not the set-up before them.
     t_steps = time.perf_counter()
     try:
-        # The stage is popped however the loop ends (the handlers below run after it).
+        # The stage is popped however the loop ends (the handlers in _run run after it).
         with PETSc.Log.Stage("Explicit steps"):
-            for k in range(first, nsteps + 1):
+            for k in range(first, s.nsteps + 1):
                 t = k * dt
                 ramp = 1.0 if p.load_ramp <= 0 else min(1.0, (k - 1) * dt / p.load_ramp)
                 ctx.whole = None         # mid-step: points and records disagree until the end
@@ -397,28 +497,18 @@ def _run(p, comm, ctx) -> int:
                 due = int(p.checkpoint_seconds > 0 and comm.getRank() == 0
                           and time.perf_counter() - last_ckpt > p.checkpoint_seconds)
                 signal_seen, due = model.migrate_if_needed((stop.seen, due))
-                if k % 50 == 0 or k == nsteps or k in iso_steps:
+                if k % 50 == 0 or k == s.nsteps or k in s.iso_steps:
                     model.check(k, t, scale)
-                if k % 10 == 0 or k in iso_steps:
-                    history.append((t, cv * t / (H * H), _monitor(points, mpi) / q))
-                    settlement.append((t, cv * t / (H * H), *surface.measure(points, mpi)))
-                if k in iso_steps:
-                    prof = profile(points, comm)
-                    if comm.getRank() == 0:
-                        profiles.append((iso_steps[k], t, prof))
-                    if k in report_steps:
-                        reports.append(report(report_steps[k], t, points, mpi, p,
-                                              monitor_height, cv, c2, p0, depths))
-                        degree.append(surface.report(report_steps[k], settlement[-1],
-                                                     c2 / cv))
-                        if comm.getRank() == 0:
-                            files["settlement_csv"] = surface.write_csv(
-                                p.output, settlement, c2 / cv)
-                if (p.output_every and k % p.output_every == 0) or k in report_steps:
-                    series.write(points, k, t)
+                if k % 10 == 0 or k in s.iso_steps:
+                    reporting.sample(t)
+                if k in s.iso_steps:
+                    reporting.isochrone(k, t)
+                if (p.output_every and k % p.output_every == 0) or k in s.report_steps:
+                    reporting.write_fields(k, t)
+                state.step = k           # the records are those of step k from here on
                 if (signal_seen or due
                         or (p.checkpoint_every and k % p.checkpoint_every == 0)):
-                    checkpoint.write(ckpt_path, comm, points, state(k), p)
+                    checkpoint.write(ckpt_path, comm, s.points, state.to_dict(), p)
                     last_ckpt = time.perf_counter()
                 if signal_seen:
                     raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} s); "
@@ -426,32 +516,90 @@ def _run(p, comm, ctx) -> int:
                                       f"-mpm_restart {ckpt_path}")
                 if p.progress and time.perf_counter() - last_print > p.progress:
                     last_print = time.perf_counter()
-                    stepping = last_print - t_steps
-                    PETSc.Sys.Print(f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), "
-                                    f"t = {t:.4g} s, T_v = {cv * t / H ** 2:.4f}, p/q(monitor) = "
-                                    f"{history[-1][2] if history else float('nan'):.4f}, "
-                                    f"{last_print - t_wall:.0f} s elapsed, about "
-                                    f"{stepping / (k - first + 1) * (nsteps - k):.0f} s left",
-                                    comm=comm)
+                    PETSc.Sys.Print(_progress(s, k, t, last_print, t_steps, first), comm=comm)
                 ctx.whole = k
     except (NumericalError, Interrupted) as exc:
-        stop.restore()
-        np.seterr(**fp)
+        for undo in ctx.cleanup:       # the signals' handlers and NumPy's FP settings
+            undo()
         blew_up = isinstance(exc, NumericalError)
-        summary.update(stable=not blew_up, interrupted=not blew_up, steps=k,
-                       failure=str(exc), wall_seconds=time.perf_counter() - t_wall,
-                       completed=False, error=entry(str(exc), exc.exit_code))
+        ctx.summary.update(stable=not blew_up, interrupted=not blew_up, steps=k,
+                           failure=str(exc), wall_seconds=time.perf_counter() - s.t_wall,
+                           completed=False, error=entry(str(exc), exc.exit_code))
         if comm.getRank() == 0:
-            output.write_json(summary_path, dict(summary, files={"summary": summary_path}))
+            output.write_json(ctx.summary_path,
+                              dict(ctx.summary, files={"summary": ctx.summary_path}))
         raise
-    stop.restore()
-    np.seterr(**fp)
-    ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
 
-    summary["steps"] = nsteps
+
+def _progress(s, k, t, now, t_steps, first) -> str:
+    """The progress line at step ``k`` (time ``t``), ``now`` (perf_counter)."""
+    H, nsteps, history = s.p.size[1], s.nsteps, s.state.history
+    return (f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), "
+            f"t = {t:.4g} s, T_v = {s.cv * t / H ** 2:.4f}, p/q(monitor) = "
+            f"{history[-1][2] if history else float('nan'):.4f}, "
+            f"{now - s.t_wall:.0f} s elapsed, about "
+            f"{(now - t_steps) / (k - first + 1) * (nsteps - k):.0f} s left")
+
+
+class _Reporting:
+    """Where the time loop hands its results: the monitor and settlement samples, the
+    profiles and reports at the isochrone and report steps, settlement.csv at each report,
+    the field series; the records go into the run's state. Made after the model, it
+    resumes a restart's series and says so."""
+
+    def __init__(self, s, comm):
+        self.s, self.comm, self.mpi = s, comm, comm.tompi4py()
+        self.state, self.points, p = s.state, s.points, s.p
+        self.H, self.q, self.ratio = p.size[1], load_scale(p), s.c2 / s.cv
+        self.files = {}
+        self.series = _Series(p.output, comm)
+        self.surface = _Surface(s.grid, p)
+        self.depths = Depths(self.H)
+        self.depths.refresh(s.points)
+        if s.restarted:
+            self.series.resume(self.state.series)
+            self.state.series = self.series.entries
+            step = self.state.step
+            PETSc.Sys.Print(f"Restart from {p.restart} at step {step} "
+                            f"(t = {step * s.dt:.6g} s)", comm=comm)
+
+    def sample(self, t):
+        """The monitor's p / q and the surface settlement and mean p at time ``t``."""
+        Tv = self.s.cv * t / (self.H * self.H)
+        self.state.history.append((t, Tv, _monitor(self.points, self.mpi) / self.q))
+        self.state.settlement.append((t, Tv, *self.surface.measure(self.points, self.mpi)))
+
+    def isochrone(self, k, t):
+        """The profile at isochrone step ``k``; at a report step its report, degree of
+        consolidation and settlement.csv."""
+        s, state, comm = self.s, self.state, self.comm
+        prof = profile(self.points, comm)
+        if comm.getRank() == 0:
+            state.profiles.append((s.iso_steps[k], t, prof))
+        if k in s.report_steps:
+            Tv = s.report_steps[k]
+            state.reports.append(report(Tv, t, self.points, self.mpi, s.p, s.monitor_height,
+                                        s.cv, s.c2, s.p0, self.depths))
+            state.degree.append(self.surface.report(Tv, state.settlement[-1], self.ratio))
+            if comm.getRank() == 0:
+                self.files["settlement_csv"] = self.surface.write_csv(
+                    s.p.output, state.settlement, self.ratio)
+
+    def write_fields(self, k, t):
+        """The points' fields at step ``k`` into the series (collective)."""
+        self.series.write(self.points, k, t)
+        self.state.series = self.series.entries
+
+
+def _finish(s, reporting, summary, comm) -> int:
+    """The reporting after the last step: the summary's results, the tables, the target
+    error's check; the output files and the summary (rank 0)."""
+    p, state, goal = s.p, s.state, s.goal
+    reports, summary_path = state.reports, p.summary or os.path.join(p.output, "summary.json")
+    summary["steps"] = s.nsteps
     summary["completed"] = True
-    summary["wall_seconds"] = time.perf_counter() - t_wall
-    summary["monitor"] = {"height": monitor_height,
+    summary["wall_seconds"] = time.perf_counter() - s.t_wall
+    summary["monitor"] = {"height": s.monitor_height,
                           "Tv": [r["Tv"] for r in reports],
                           "p_over_q": [r["p_over_q"] for r in reports],
                           "terzaghi": [r["terzaghi"] for r in reports],
@@ -461,9 +609,9 @@ def _run(p, comm, ctx) -> int:
     summary["profile_l2"] = {"Tv": [r["Tv"] for r in reports],
                              "terzaghi": [r["l2_terzaghi"] for r in reports],
                              "consistent": [r["l2_consistent"] for r in reports]}
-    summary["consolidation_degree"] = surface.summary(degree)
+    summary["consolidation_degree"] = reporting.surface.summary(state.degree)
     _print_reports(comm, reports, p)
-    _print_degree(comm, degree)
+    _print_degree(comm, state.degree)
     if goal is not None:
         goal["achieved_pct"] = workprecision.measure(summary)
         if math.isnan(goal["achieved_pct"]):
@@ -473,12 +621,15 @@ def _run(p, comm, ctx) -> int:
             said = f"this run reached {goal['achieved_pct']:.2f} % " \
                    f"({'met' if met else 'NOT met'})"
         PETSc.Sys.Print(f"Target error {p.target_error:g} %: {said}", comm=comm)
+    files = reporting.files
     files["summary"] = summary_path
     if comm.getRank() == 0:
-        if series.entries:
-            files["fields_xdmf"] = series.xdmf
-        files.update(_write_files(p, profiles, history, cv, c2, p0, monitor_height))
-        files.update(_settlement_files(p, surface, settlement, c2 / cv))
+        if reporting.series.entries:
+            files["fields_xdmf"] = reporting.series.xdmf
+        files.update(_write_files(p, state.profiles, state.history, s.cv, s.c2, s.p0,
+                                  s.monitor_height))
+        files.update(_settlement_files(p, reporting.surface, state.settlement,
+                                       reporting.ratio))
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
                     comm=comm)

@@ -245,30 +245,10 @@ def _analysis(p, comm, ctx, owned) -> dict:
     ctx["summary"], ctx["freq"] = summary, freq
     E_c = assembly.constrained_modulus(p.E, p.nu)
     rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
-    warnings = []
+    warnings = []          # Jacobi's, then the zero-energy modes'
     if "jacobi" in p.eigen_solver:
-        try:
-            with PETSc.Log.Stage("Jacobi"):
-                res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
-        except jacobi.MassError as exc:
-            raise NumericalError(mass_diagnosis(p, exc)) from None
-        owned.callback(destroy, *res.vectors)
-        freq["jacobi"], vecs["jacobi"] = frequencies(res.eigenvalues[:p.nmodes]), res.vectors
-        # Modes at about 0 Hz (rigid-body motion) have no meaningful relative residual;
-        # zero_energy_diagnosis below reports them.
-        finite = freq["jacobi"] >= ZERO_HZ * rod[0]
-        worst = float(np.max(res.residual[finite], initial=0.0))
-        summary["jacobi"] = {"sweeps": res.sweeps, "seconds": res.seconds, "tol": p.jacobi_tol,
-                             "coupling": res.coupling, "eigenvalue_change": res.change,
-                             "residual": res.residual, "block_sizes": list(res.block)}
-        PETSc.Sys.Print(f"Jacobi: {res.sweeps} sweeps to tolerance {p.jacobi_tol:.0e}, "
-                        f"{res.seconds:.3f} s, largest relative residual {worst:.1e}", comm=comm)
-        if worst > RESIDUAL_WARNING:
-            warnings.append(
-                f"Jacobi: relative residuals up to {worst:.1e} in the reported modes at "
-                f"-mpm_jacobi_tol {p.jacobi_tol:.0e}: mode shapes good to about {worst:.0e}, "
-                f"frequencies to about {min(worst, worst ** 2 * 10):.0e} (relative); a "
-                "smaller -mpm_jacobi_tol (the paper's 1e-15) costs a few more sweeps")
+        freq["jacobi"], vecs["jacobi"], summary["jacobi"], warnings = _jacobi(
+            p, comm, K, M, rod, owned)
     elif n <= MASS_CHECK_MAX_DOFS:
         # SLEPc's B-inner product needs M positive definite as much as Jacobi does: with a
         # singular M it may return modes at 0 Hz that are no eigenpairs (1 point per Q4 cell).
@@ -296,19 +276,7 @@ def _analysis(p, comm, ctx, owned) -> dict:
         macs = [mac(a, b) for a, b in zip(vecs["jacobi"], vecs["slepc"])]
         summary["cross_check"] = {"relative_eigenvalue_difference": rel, "mac": macs}
 
-    # References: the 1D rod and the plain FE model (Gauss points) of the same mesh.
-    fe_ppc = 2 if p.element == "q4" else 3
-    gauss = build(comm, p, placement="gauss", ppc=fe_ppc)
-    owned.callback(destroy, *reversed(gauss))
-    _, _, Kg, Mg, _ = gauss
-    # Its own options prefix: -eps_* tune the main solve above, -fe_eps_* this one.
-    res = slepc_solve(Kg, Mg, p.nmodes, prefix="fe_")
-    destroy(*res.vectors)
-    fe = frequencies(res.values)
-    refs = {"rod_hz": rod, "fe_gauss_hz": fe}
-    if is_paper_scene(p):
-        refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]
-        refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:p.nmodes]
+    refs = _references(p, comm, rod, owned)
     summary["references"] = refs
     _print_table(comm, freq, refs, summary.get("cross_check"))
 
@@ -317,6 +285,53 @@ def _analysis(p, comm, ctx, owned) -> dict:
     summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
                                       freq.get("jacobi", freq.get("slepc")), rod, summary)
     return summary
+
+
+def _jacobi(p, comm, K, M, rod, owned) -> tuple:
+    """The Jacobi solve of :func:`_analysis` (its vectors go on ``owned``), printed:
+    (frequencies (Hz), mode vectors, its summary entry, its warnings)."""
+    try:
+        with PETSc.Log.Stage("Jacobi"):
+            res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
+    except jacobi.MassError as exc:
+        raise NumericalError(mass_diagnosis(p, exc)) from None
+    owned.callback(destroy, *res.vectors)
+    freq = frequencies(res.eigenvalues[:p.nmodes])
+    # Modes at about 0 Hz (rigid-body motion) have no meaningful relative residual;
+    # zero_energy_diagnosis reports them.
+    finite = freq >= ZERO_HZ * rod[0]
+    worst = float(np.max(res.residual[finite], initial=0.0))
+    summary = {"sweeps": res.sweeps, "seconds": res.seconds, "tol": p.jacobi_tol,
+               "coupling": res.coupling, "eigenvalue_change": res.change,
+               "residual": res.residual, "block_sizes": list(res.block)}
+    PETSc.Sys.Print(f"Jacobi: {res.sweeps} sweeps to tolerance {p.jacobi_tol:.0e}, "
+                    f"{res.seconds:.3f} s, largest relative residual {worst:.1e}", comm=comm)
+    warnings = []
+    if worst > RESIDUAL_WARNING:
+        warnings.append(
+            f"Jacobi: relative residuals up to {worst:.1e} in the reported modes at "
+            f"-mpm_jacobi_tol {p.jacobi_tol:.0e}: mode shapes good to about {worst:.0e}, "
+            f"frequencies to about {min(worst, worst ** 2 * 10):.0e} (relative); a "
+            "smaller -mpm_jacobi_tol (the paper's 1e-15) costs a few more sweeps")
+    return freq, res.vectors, summary, warnings
+
+
+def _references(p, comm, rod, owned) -> dict:
+    """The references of :func:`_analysis`: the 1D rod's frequencies ``rod``, the plain FE
+    model (Gauss points) of the same mesh, and on the paper's scene its Table 3 (Hz)."""
+    fe_ppc = 2 if p.element == "q4" else 3
+    gauss = build(comm, p, placement="gauss", ppc=fe_ppc)
+    owned.callback(destroy, *reversed(gauss))
+    _, _, Kg, Mg, _ = gauss
+    # Its own options prefix: -eps_* tune the main solve, -fe_eps_* this one.
+    res = slepc_solve(Kg, Mg, p.nmodes, prefix="fe_")
+    destroy(*res.vectors)
+    fe = frequencies(res.values)
+    refs = {"rod_hz": rod, "fe_gauss_hz": fe}
+    if is_paper_scene(p):
+        refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]
+        refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:p.nmodes]
+    return refs
 
 
 def _print_table(comm, freq, refs, cross):
