@@ -118,6 +118,25 @@ def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=No
     return CliResult(code, out, err, summary)
 
 
+def scene_options(**given):
+    """The solver's options (``options.read``) of a scene given as keywords (``cells="1,10"``),
+    a consolidation scene unless ``analysis`` says otherwise, read in-process as from a
+    command line; PETSc's database is left as it was found."""
+    from petsc4py import PETSc
+
+    from solver import options
+
+    db = PETSc.Options()
+    given = {"analysis": "consolidation", **given}
+    for key, value in given.items():
+        db.setValue("mpm_" + key, str(value))
+    try:
+        return options.read(db=db)
+    finally:
+        for key in given:
+            db.delValue("mpm_" + key)
+
+
 def check_ok(res: CliResult):
     """Assert a successful run, showing its output when it is not."""
     assert res.returncode == 0, (f"exit code {res.returncode}\nstdout:\n{res.stdout}\n"

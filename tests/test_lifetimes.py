@@ -3,27 +3,16 @@
 from __future__ import annotations
 
 import pytest
+from conftest import scene_options
 from petsc4py import PETSc
 
-from solver import assembly, options, scene
+from solver import assembly, scene
 from solver.grid import Grid
 from solver.twophase import TwoPhase
 
 
-def _params(**given):
-    db = PETSc.Options()
-    given = dict(analysis="consolidation", **given)
-    for key, value in given.items():
-        db.setValue("mpm_" + key, str(value))
-    try:
-        return options.read(db=db)
-    finally:
-        for key in given:
-            db.delValue("mpm_" + key)
-
-
 def test_build_returns_what_destroy_destroys():
-    made = scene.build(PETSc.COMM_WORLD, _params())
+    made = scene.build(PETSc.COMM_WORLD, scene_options())
     grid, points, K, M, free = made
     assert K.handle and M.handle and free.handle and grid.da.handle
     scene.destroy(*reversed(made))
@@ -44,12 +33,12 @@ def test_a_failed_build_destroys_what_it_made(monkeypatch):
     monkeypatch.setattr(Grid, "destroy", destroy)
     monkeypatch.setattr(assembly, "stiffness_and_mass", fail)
     with pytest.raises(RuntimeError, match="assembly failed"):
-        scene.build(PETSc.COMM_WORLD, _params())
+        scene.build(PETSc.COMM_WORLD, scene_options())
     assert len(made) == 1 and not made[0].da.handle
 
 
 def test_two_phase_body_and_model_as_with_blocks():
-    p = _params()
+    p = scene_options()
     grid, points = scene.two_phase_body(PETSc.COMM_WORLD, p)
     with grid, points, TwoPhase(grid, points, p, scene.boundary_conditions(p),
                                 assembly.step_scheme(p)) as model:

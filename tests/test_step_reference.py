@@ -17,10 +17,10 @@ import json
 
 import numpy as np
 import pytest
-from conftest import check_ok
+from conftest import check_ok, scene_options
 from petsc4py import PETSc
 
-from solver import assembly, kernels, options, scene, twophase
+from solver import assembly, kernels, scene, twophase
 from solver.grid import Grid
 from solver.points import place
 from solver.timestep import impermeable, mixture_density, wave_speeds
@@ -31,14 +31,7 @@ def _params(**opts):
     for key in list(db.getAll()):
         db.delValue(key)
     # The reference has no fast-part damping: off unless a case sets it.
-    given = {"analysis": "consolidation", "fast_damping": 0, **opts}
-    for k, v in given.items():
-        db.setValue("mpm_" + k, str(v))
-    try:
-        return options.read(db=db)
-    finally:
-        for k in given:
-            db.delValue("mpm_" + k)
+    return scene_options(**{"fast_damping": 0, **opts})
 
 
 def _dampers(p, grid, S):
