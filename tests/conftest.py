@@ -137,6 +137,19 @@ def scene_options(**given):
             db.delValue("mpm_" + key)
 
 
+def option_entries(help_text):
+    """(invocation, help) of each option in argparse's --help output."""
+    body = help_text.split("options:", 1)[1].splitlines()
+    entries = []
+    for line in body:
+        if line.startswith("  -"):
+            head, _, text = line[2:].partition("  ")
+            entries.append([head.strip(), text.strip()])
+        elif line.strip() and entries:
+            entries[-1][1] += " " + line.strip()
+    return entries
+
+
 def check_ok(res: CliResult):
     """Assert a successful run, showing its output when it is not."""
     assert res.returncode == 0, (f"exit code {res.returncode}\nstdout:\n{res.stdout}\n"

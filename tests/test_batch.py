@@ -14,7 +14,8 @@ import subprocess
 import sys
 
 import pytest
-from conftest import CASES, PYTHON, REPO, clean_env, mpi_command, run_command
+from conftest import (CASES, PYTHON, REPO, clean_env, mpi_command, option_entries,
+                      run_command)
 
 SHORT = ["-mpm_Tv_end", "0.02", "-mpm_progress", "0", "-mpm_figures", "0"]
 M1 = CASES / "consolidation-m1-q4.opts"
@@ -325,14 +326,7 @@ def test_study_scripts_write_under_output_and_document_every_option(name):
     assert res.returncode == 0, res.stderr
     text = " ".join(res.stdout.split())
     assert f"(default output/studies/{name})" in text
-    body = res.stdout.split("options:", 1)[1].splitlines()
-    entries = []
-    for line in body:
-        if line.startswith("  -"):
-            head, _, help_text = line[2:].partition("  ")
-            entries.append([head.strip(), help_text.strip()])
-        elif line.strip() and entries:
-            entries[-1][1] += " " + line.strip()
+    entries = option_entries(res.stdout)
     assert {"--out OUT", "--publish"} <= {head for head, _ in entries}
     for head, help_text in entries:
         assert len(help_text) > 10, f"{name}: {head} has no help text"

@@ -13,7 +13,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from conftest import PYTHON, REPO, check_ok, clean_env, run_command
+from conftest import PYTHON, REPO, check_ok, clean_env, option_entries, run_command
 
 from solver import output, study, workprecision
 
@@ -186,19 +186,6 @@ def _run_script(name, args, env, cwd):
                           capture_output=True, text=True, timeout=120)
 
 
-def _option_entries(help_text):
-    """(invocation, help) of each option in argparse's --help output."""
-    body = help_text.split("options:", 1)[1].splitlines()
-    entries = []
-    for line in body:
-        if line.startswith("  -"):
-            head, _, text = line[2:].partition("  ")
-            entries.append([head.strip(), text.strip()])
-        elif line.strip() and entries:
-            entries[-1][1] += " " + line.strip()
-    return entries
-
-
 @pytest.mark.parametrize("name", SCRIPTS)
 def test_script_runs_as_an_executable_and_every_option_has_help(name, tmp_path):
     env, bare = _script_env(tmp_path)
@@ -209,7 +196,7 @@ def test_script_runs_as_an_executable_and_every_option_has_help(name, tmp_path):
     res = _run_script(name, ["--help"], env, tmp_path)
     assert res.returncode == 0, res.stderr
     assert res.stdout.startswith(f"usage: {name}")
-    entries = _option_entries(res.stdout)
+    entries = option_entries(res.stdout)
     assert len(entries) >= 6
     for head, text in entries:
         assert len(text) > 10, f"{name}: {head} has no help text"
