@@ -21,7 +21,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
-               output, provenance, scene, timestep, workprecision)
+               output, provenance, scene, shapes, timestep, workprecision)
 from .errors import (InputError, InternalError, Interrupted, NumericalError, agree, describe,
                      entry)
 from .twophase import TwoPhase
@@ -85,10 +85,9 @@ def f1_cells(p) -> tuple:
     factor in both directions to at most F1_MAX_DOFS DOFs. f1 of the column converges fast
     (M1-Q4 column: 16.89343 Hz on 25 x 625 cells, 16.89343 on 100 x 2500, whose solve
     needs 2.2 GB and 21 s for that sixth digit)."""
-    order = {"q4": 1, "q8": 2, "q9": 2}[p.element]
     factor = 1
-    while 2 * (order * (p.cells[0] // factor) + 1) * (order * (p.cells[1] // factor) + 1) \
-            > F1_MAX_DOFS and min(p.cells) // (factor + 1) >= 1:
+    while 2 * shapes.lattice_nodes(p.element, [c // factor for c in p.cells]) > F1_MAX_DOFS \
+            and min(p.cells) // (factor + 1) >= 1:
         factor += 1
     return tuple(max(1, c // factor) for c in p.cells)
 
@@ -860,8 +859,8 @@ class _Series:
             return None if a is None else np.column_stack([a, np.zeros(len(a))])
 
         def displacement():
-            x, x0 = gathered("x"), gathered("x0")
-            return None if x is None else x - x0
+            x0 = gathered("x0")
+            return None if x0 is None else xy - x0
 
         fields = {
             "displacement": lambda: with_z(displacement()),

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 
 from .errors import InputError
-from .shapes import ORDER
+from .shapes import lattice_nodes
 
 # Bytes per material point of a consolidation run and per grid node: generous bounds; they
 # only have to separate a model that fits from one that cannot. Measured peak: 447 B per Q4
@@ -27,8 +27,7 @@ def available() -> int:
 def estimate(p) -> int:
     """Bytes the whole job needs, over all ranks."""
     nx, ny = p.cells
-    k = ORDER[p.element]
-    nodes = (k * nx + 1) * (k * ny + 1)
+    nodes = lattice_nodes(p.element, p.cells)
     points = nx * ny * p.ppc ** 2
     total = points * BYTES_PER_POINT + nodes * BYTES_PER_NODE
     if p.analysis == "eigen" and "jacobi" in p.eigen_solver:

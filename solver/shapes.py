@@ -13,6 +13,12 @@ import numpy as np
 ORDER = {"q4": 1, "q8": 2, "q9": 2}
 
 
+def lattice_nodes(element: str, cells) -> int:
+    """Nodes of the lattice of ``cells = (NX, NY)`` cells of this type: (p NX + 1)(p NY + 1)."""
+    p = ORDER[element]
+    return (p * cells[0] + 1) * (p * cells[1] + 1)
+
+
 def _lattice(p, skip_centre=False):
     pts = [(i, j) for j in range(p + 1) for i in range(p + 1)]
     if skip_centre:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, assembly
+from . import analytic, assembly, shapes
 from .scene import boundary_conditions, mixture_density
 
 G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defined
@@ -67,8 +67,7 @@ ESTIMATE_STATE = 600   # larger grids are first analysed on a patch this small (
 
 def _state_size(element, cells) -> int:
     """Unknowns of the dense analysis, at most: 8 per grid node (U and y of both phases)."""
-    order = {"q4": 1, "q8": 2, "q9": 2}[element]
-    return 8 * (order * cells[0] + 1) * (order * cells[1] + 1)
+    return 8 * shapes.lattice_nodes(element, cells)
 
 
 def _patch(element, cells, max_state) -> tuple:
@@ -283,12 +282,11 @@ def _bisect_limit(parts, flip, guess, rtol=1e-4, estimate=None):
         return _spectral_radius(parts, flip, dt) <= 1 + RADIUS_TOL
 
     lo, hi = _bracket(stable, estimate, 1 + rtol) if estimate else (None, None)
+    lo = lo or guess / 64
     if hi is None:
-        lo = lo or guess / 64
         hi = max(lo, guess) * 4
         while stable(hi):
             lo, hi = hi, hi * 4
-    lo = lo or guess / 64
     # A bracket of exactly 1 + rtol is done (rounding must not cost one more eigensolve).
     while hi / lo > (1 + rtol) * (1 + 1e-12):
         mid = np.sqrt(lo * hi)
