@@ -66,7 +66,15 @@ def _scan_options_files(argv) -> tuple:
     return origins, None
 
 
-def main(argv=None) -> int:
+def main(argv=None, comm=None) -> int:
+    """Run the command line ``argv`` (program name first; ``sys.argv`` when None) and return
+    its exit code.
+
+    Called from Python where PETSc already runs (a test, a notebook, one process running
+    several scenes), the options of ``argv`` hold for this call only and ``comm`` (default
+    ``PETSc.COMM_WORLD``) runs the analysis; ``-options_left`` and ``-log_view`` then belong
+    to the host process, which prints them when it finalises PETSc.
+    """
     argv = list(sys.argv if argv is None else argv)
     origins, code = _scan_options_files(argv)
     if code is not None:
@@ -76,20 +84,36 @@ def main(argv=None) -> int:
         if arg.startswith("-mpm_"):
             origins.pop(arg[5:], None)
 
-    import petsc4py
+    hosted = "petsc4py.PETSc" in sys.modules
+    if not hosted:
+        # (Called again where PETSc runs, init would register a second finalisation.)
+        import petsc4py
+        import slepc4py
 
-    petsc4py.init(argv)
-    import slepc4py
-
-    slepc4py.init(argv)
+        petsc4py.init(argv)
+        slepc4py.init(argv)
     from petsc4py import PETSc
     from slepc4py import SLEPc  # noqa: F401  (initialised here, before the signals are set)
+
+    from . import options
+    from .errors import InputError
+
+    comm = PETSc.COMM_WORLD if comm is None else comm
+    try:
+        with options.command_line(argv if hosted else argv[:1]):
+            return _run(argv, origins, scene_analysis, comm)
+    except InputError as exc:    # a command line that is not options
+        return _fail(str(exc), 2, comm.getRank())
+
+
+def _run(argv, origins, scene_analysis, comm) -> int:
+    """The analysis the options in PETSc's database ask for; the exit code (see above)."""
+    from petsc4py import PETSc
 
     from . import options
     from .errors import InputError, InternalError, Interrupted, NumericalError, describe
 
     _survive_closed_stdout()
-    comm = PETSc.COMM_WORLD
     if {"-help", "--help", "-h"} & set(argv):
         return _help(options, origins, comm)
     debug = PETSc.Options().getString("mpm_debug", "false")
@@ -136,6 +160,8 @@ def main(argv=None) -> int:
         _fail(f"internal error on rank {comm.getRank()}: {describe(exc)}; aborting MPI", 5)
         comm.tompi4py().Abort(5)
     finally:
+        if not debug:
+            PETSc.Sys.popErrorHandler()
         _release_stdout()
     return 0
 

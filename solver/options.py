@@ -15,6 +15,7 @@ changes that are visible where they are made.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import difflib
 import math
@@ -358,6 +359,13 @@ def read(spec=None, db=None, origins=None):
                from_file={n: origins[n] for n in given if n in origins}, notes=tuple(notes))
 
 
+def _file_pairs(path: str) -> list:
+    """``[(name, value or None)]`` of a plain options file, in its order."""
+    with open(path, encoding="utf-8") as fh:
+        words = [line.split("#", 1)[0].split() for line in fh]
+    return [(w[0][1:], w[1] if len(w) > 1 else None) for w in words if w]
+
+
 def scan_file(path: str) -> dict:
     """Check a plain PETSc options file line by line before PETSc reads it.
 
@@ -415,3 +423,63 @@ def given_text(spec=None, db=None) -> dict:
     db = PETSc.Options() if db is None else db
     return {o.name: db.getString(PREFIX + o.name, "") if db.hasName(PREFIX + o.name)
             else _describe(o, o.default) for o in spec}
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _pairs(args) -> list:
+    """``[(name, value or None)]`` of command-line arguments, split as PETSc splits them: a
+    word that starts with ``-`` and is not a number names an option; the word after it is
+    its value unless it names another."""
+    pairs = []
+    for word in args:
+        if word.startswith("-") and not _is_number(word):
+            pairs.append((word[1:], None))
+        elif pairs and pairs[-1][1] is None:
+            pairs[-1] = (pairs[-1][0], word)
+        else:
+            raise InputError(f"'{word}': expected an option (-name [value])")
+    return pairs
+
+
+@contextlib.contextmanager
+def command_line(argv, db=None):
+    """PETSc's database holding the options of ``argv`` (a command line, program name
+    first) for the duration of the block, then the database as it was.
+
+    For a process where PETSc already runs (a test, a notebook, a study calling
+    ``solver.__main__.main`` once per scene), where ``petsc4py.init`` can no longer take
+    them. As at PETSc's start, the ``-options_file`` files are read first and the rest of
+    the command line wins over them.
+    """
+    from petsc4py import PETSc
+
+    db = PETSc.Options() if db is None else db
+    before = db.getAll()
+    try:
+        pairs = _pairs(argv[1:])
+        # PETSc reads an -options_file on rank 0 of COMM_WORLD and broadcasts it, which a
+        # run on fewer ranks would leave half done; the files are plain (scan_file checked
+        # them), so they are read here. -help is the caller's to act on: in the database it
+        # would change how PETSc finalises.
+        for name, value in pairs:
+            if name == "options_file":
+                for option, text in _file_pairs(value):
+                    db.setValue(option, text)
+        for name, value in pairs:
+            if name not in ("options_file", "help", "-help", "h"):
+                db.setValue(name, value)
+        yield db
+    finally:
+        after = db.getAll()
+        for name, value in after.items():
+            if name not in before:
+                db.delValue(name)
+            elif before[name] != value:
+                db.setValue(name, before[name])

@@ -1,8 +1,11 @@
 """Shared helpers of the test suite.
 
-* :func:`run_cli` runs ``python -m solver`` as a subprocess (optionally under ``mpirun -n N``)
-  in the repository root with its output in a temporary folder, and returns the exit code,
-  stdout, stderr and the parsed ``summary.json`` (None when there is none).
+* :func:`run_cli` runs the solver's command line, in this process (``solver.__main__.main``
+  on a communicator: the ranks of an ``mpi`` test, or this rank alone) or, for the end-to-end
+  tests, as ``python -m solver`` in a subprocess; output in a temporary folder. It returns
+  the exit code, stdout, stderr and the parsed ``summary.json`` (None when there is none).
+* ``@pytest.mark.mpi(N)`` runs a test in-process on every rank of ``mpirun -n N``
+  (``mpi_pytest``); temporary folders are shared by its ranks.
 * ``paper_run`` (session fixture) runs each paper scene once per rank count and caches it.
 * ``ref_shapes`` (fixture): Q4/Q8/Q9 shape functions written independently of
   ``solver.shapes`` (generic 1D Lagrange products and the serendipity formulas), used as the
@@ -11,12 +14,16 @@
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import io
 import json
 import os
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 from typing import NamedTuple, Optional
 
@@ -34,6 +41,8 @@ PYTHON = sys.executable
 MPIRUN = shutil.which("mpirun")
 CASES = REPO / "cases"
 ELEMENTS = ("q4", "q8", "q9")
+
+pytest_plugins = ["mpi_pytest"]
 
 
 class CliResult(NamedTuple):
@@ -90,13 +99,17 @@ def run_command(cmd, timeout=180, cwd=REPO):
         return 124, out, err + f"\n[test harness: killed after {timeout} s timeout]\n"
 
 
-def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=None):
+def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=None,
+            process: bool = False):
     """Run the solver's command line; returns :class:`CliResult` (a 4-tuple
-    (returncode, stdout, stderr, summary dict or None)).
+    (returncode, stdout, stderr, summary dict or None)), the same on every rank.
 
     ``args``: command-line arguments after ``-m solver``. ``-mpm_output out_dir`` is appended
     unless ``args`` already names an output folder. ``options_file``: a scene name
-    (``'eigen-q4'``) or a path, prepended as ``-options_file``.
+    (``'eigen-q4'``) or a path, prepended as ``-options_file``. In this process by default:
+    ``ranks`` 1 on rank 0 alone (the others receive its result), or on every rank of an
+    ``mpi(ranks)`` test. ``process``: as ``python -m solver`` in a subprocess (under
+    ``mpirun -n ranks``), killed after ``timeout`` seconds.
     """
     args = [str(a) for a in args]
     if options_file is not None:
@@ -104,8 +117,11 @@ def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=No
         args = ["-options_file", str(path), *args]
     if _option_value(args, "-mpm_output") is None:
         args += ["-mpm_output", str(out_dir)]
-    cmd = mpi_command(ranks, [PYTHON, "-m", "solver", *args])
-    code, out, err = run_command(cmd, timeout=timeout)
+    if process:
+        cmd = mpi_command(ranks, [PYTHON, "-m", "solver", *args])
+        code, out, err = run_command(cmd, timeout=timeout)
+    else:
+        code, out, err = _run_here(args, ranks)
     summary_path = _option_value(args, "-mpm_summary") or os.path.join(
         _option_value(args, "-mpm_output"), "summary.json")
     summary_path = Path(summary_path)
@@ -116,6 +132,100 @@ def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=No
         with open(summary_path) as fh:
             summary = json.load(fh)
     return CliResult(code, out, err, summary)
+
+
+def _run_here(args, ranks):
+    """(exit code, stdout, stderr) of ``solver.__main__.main`` in this process, from rank 0
+    on every rank, after every rank has returned (rank 0 writes the files)."""
+    from mpi4py import MPI
+    from petsc4py import PETSc
+    # On every rank: SLEPc started by rank 0 alone would hang PETSc's finalisation.
+    from slepc4py import SLEPc  # noqa: F401
+
+    from solver.__main__ import main
+
+    world = MPI.COMM_WORLD
+    if ranks not in (1, world.size):
+        pytest.fail(f"a run on {ranks} ranks needs the marker mpi({ranks}); "
+                    f"this test runs on {world.size}")
+    result = None
+    if ranks == world.size or world.rank == 0:
+        comm = PETSc.COMM_SELF if ranks == 1 else PETSc.COMM_WORLD
+        cwd = os.getcwd()
+        os.chdir(REPO)              # relative paths as from the repository root
+        try:
+            with captured() as streams:
+                code = main(["solver", *args], comm=comm)
+        finally:
+            os.chdir(cwd)
+        result = (code, *streams.text())
+    return world.bcast(result, root=0)
+
+
+class _Streams:
+    def __init__(self):
+        self.files = [tempfile.TemporaryFile(), tempfile.TemporaryFile()]
+
+    def text(self):
+        out = []
+        for fh in self.files:
+            fh.seek(0)
+            out.append(fh.read().decode("utf-8", "replace"))
+            fh.close()
+        return out
+
+
+@contextlib.contextmanager
+def captured():
+    """stdout and stderr of the block, C-level (PETSc's printing) and Python's alike."""
+    libc = ctypes.CDLL(None)
+    streams = _Streams()
+    saved = [sys.stdout, sys.stderr]
+    for stream in saved:
+        stream.flush()
+    libc.fflush(None)
+    fds = [os.dup(1), os.dup(2)]
+    os.dup2(streams.files[0].fileno(), 1)
+    os.dup2(streams.files[1].fileno(), 2)
+    sys.stdout, sys.stderr = (io.TextIOWrapper(open(fd, "wb", closefd=False),
+                                               write_through=True) for fd in (1, 2))
+    try:
+        yield streams
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        libc.fflush(None)
+        os.dup2(fds[0], 1)
+        os.dup2(fds[1], 2)
+        for fd in fds:
+            os.close(fd)
+        sys.stdout, sys.stderr = saved
+
+
+class _SharedTmp:
+    """pytest's tmp_path_factory whose folders rank 0 makes and every rank receives."""
+
+    def __init__(self, factory):
+        self._factory = factory
+
+    def mktemp(self, basename, numbered=True):
+        from mpi4py import MPI
+
+        world = MPI.COMM_WORLD
+        path = self._factory.mktemp(basename, numbered) if world.rank == 0 else None
+        return Path(world.bcast(str(path) if path else None, root=0))
+
+    def getbasetemp(self):
+        return self._factory.getbasetemp()
+
+
+@pytest.fixture(scope="session")
+def tmp_path_factory(tmp_path_factory):
+    """pytest's own; under mpirun the folders are shared by the ranks (so is ``tmp_path``,
+    which pytest makes through this factory)."""
+    from mpi4py import MPI
+
+    return _SharedTmp(tmp_path_factory) if MPI.COMM_WORLD.size > 1 else tmp_path_factory
 
 
 def scene_options(**given):
@@ -161,9 +271,9 @@ def check_ok(res: CliResult):
 @pytest.fixture
 def cli(tmp_path):
     """run_cli bound to this test's temporary folder (out_dir = tmp_path / 'out')."""
-    def _run(args, ranks=1, timeout=180, options_file=None, out_dir=None):
+    def _run(args, ranks=1, timeout=180, options_file=None, out_dir=None, process=False):
         return run_cli(args, out_dir or tmp_path / "out", ranks=ranks, timeout=timeout,
-                       options_file=options_file)
+                       options_file=options_file, process=process)
     return _run
 
 

@@ -130,8 +130,9 @@ SCHEMES = [("m2-q4", 2, []), ("m1-q9", 2, []), ("m1-q4", 3, []), ("m2-q4", 4, []
            ("m1-q9", 2, ["-mpm_liquid_basis", "blended", "-mpm_gravity", "9.81"])]
 
 
-@pytest.mark.parametrize("case,ranks,extra", SCHEMES,
-                         ids=["-".join([c, str(r), *e[1::2]]) for c, r, e in SCHEMES])
+@pytest.mark.parametrize("case,ranks,extra", [
+    pytest.param(c, r, e, marks=pytest.mark.mpi(r), id="-".join([c, str(r), *e[1::2]]))
+    for c, r, e in SCHEMES])
 def test_one_and_more_ranks_agree(cli, tmp_path, case, ranks, extra):
     """Including more ranks than cells across (the 1-cell-wide column on 3 ranks)."""
     args = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05", "-mpm_progress", "0",
