@@ -24,6 +24,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import NamedTuple, Optional
 
@@ -43,6 +44,11 @@ CASES = REPO / "cases"
 ELEMENTS = ("q4", "q8", "q9")
 
 pytest_plugins = ["mpi_pytest"]
+
+# A test that runs as it is on one rank and, in-process, on each of two (``ranks`` is the
+# size of PETSc.COMM_WORLD it runs on).
+ONE_AND_TWO_RANKS = pytest.mark.parametrize(
+    "ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))], ids=["1rank", "2ranks"])
 
 
 class CliResult(NamedTuple):
@@ -159,6 +165,12 @@ def _run_here(args, ranks):
         finally:
             os.chdir(cwd)
         result = (code, *streams.text())
+    if ranks == 1 and world.size > 1:
+        # The other ranks sleep while rank 0 runs alone, rather than spin in the broadcast
+        # and take a core from the serial tests running beside them.
+        request = world.Ibarrier()
+        while not request.Test():
+            time.sleep(0.005)
     return world.bcast(result, root=0)
 
 

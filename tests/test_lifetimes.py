@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from conftest import scene_options
+from conftest import ONE_AND_TWO_RANKS, scene_options
 from petsc4py import PETSc
 
 from solver import assembly, scene
@@ -11,7 +11,9 @@ from solver.grid import Grid
 from solver.twophase import TwoPhase
 
 
-def test_build_returns_what_destroy_destroys():
+@ONE_AND_TWO_RANKS
+def test_build_returns_what_destroy_destroys(ranks):
+    assert PETSc.COMM_WORLD.getSize() == ranks
     made = scene.build(PETSc.COMM_WORLD, scene_options())
     grid, points, K, M, free = made
     assert K.handle and M.handle and free.handle and grid.da.handle
@@ -19,7 +21,9 @@ def test_build_returns_what_destroy_destroys():
     assert not (K.handle or M.handle or free.handle or grid.da.handle or points.swarm.handle)
 
 
-def test_a_failed_build_destroys_what_it_made(monkeypatch):
+@ONE_AND_TWO_RANKS
+def test_a_failed_build_destroys_what_it_made(monkeypatch, ranks):
+    assert PETSc.COMM_WORLD.getSize() == ranks
     made = []
     real = Grid.destroy
 
@@ -37,7 +41,9 @@ def test_a_failed_build_destroys_what_it_made(monkeypatch):
     assert len(made) == 1 and not made[0].da.handle
 
 
-def test_two_phase_body_and_model_as_with_blocks():
+@ONE_AND_TWO_RANKS
+def test_two_phase_body_and_model_as_with_blocks(ranks):
+    assert PETSc.COMM_WORLD.getSize() == ranks
     p = scene_options()
     grid, points = scene.two_phase_body(PETSc.COMM_WORLD, p)
     with grid, points, TwoPhase(grid, points, p, scene.boundary_conditions(p),

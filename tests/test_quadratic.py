@@ -62,7 +62,10 @@ def runs(tmp_path_factory):
         args = ["-mpm_element", e, "-mpm_cells", f"1,{ny}", *soil_args(jobs[key]),
                 "-mpm_Tv_end", "0.5", "-mpm_Tv_report", "0.2,0.5", "-mpm_progress", "0",
                 "-mpm_figures", "0"]
-        return key, run_cli(args, out, timeout=1200, options_file=f"consolidation-m1-{e}")
+        # Subprocesses: two runs at once use both cores, which threads in one process
+        # sharing PETSc's options database cannot.
+        return key, run_cli(args, out, timeout=1200, options_file=f"consolidation-m1-{e}",
+                            process=True)
 
     # Longest first.
     order = sorted(jobs, key=lambda k: -k[2])

@@ -276,6 +276,7 @@ RANK_CASES = [
 ]
 
 
+@pytest.mark.mpi(2)
 @pytest.mark.parametrize("element,extra", RANK_CASES, ids=[c[0] for c in RANK_CASES])
 def test_two_ranks_equal_one_rank(cli, tmp_path, element, extra):
     """The consolidation scene M2 (2 x 20 cells, cut between the ranks across the column)
