@@ -94,7 +94,8 @@ def f1_cells(p) -> tuple:
 
 def fundamental_frequency(comm, p) -> float:
     """f1 (Hz) of the same scene's eigen model (saturated density), for dt_crit,3, on
-    :func:`f1_cells`."""
+    :func:`f1_cells`. A SLEPc solve takes its options under the prefix ``f1_``
+    (``-f1_eps_view``), apart from an eigen analysis's ``-eps_*``."""
     p = dataclasses.replace(p, cells=f1_cells(p))
     made = scene.build(comm, p)
     _, _, K, M, _ = made
@@ -103,7 +104,7 @@ def fundamental_frequency(comm, p) -> float:
             res = jacobi.solve(K, M, 1, p.jacobi_tol, p.jacobi_max_sweeps)
             lam, vectors = res.eigenvalues[0], res.vectors
         else:
-            res = eigen.slepc_solve(K, M, 1)
+            res = eigen.slepc_solve(K, M, 1, prefix="f1_")
             lam, vectors = res.values[0], res.vectors
         scene.destroy(*vectors)
     finally:

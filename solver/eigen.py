@@ -104,6 +104,37 @@ def slepc_solve(K, M, nmodes: int, which: str = "smallest", prefix: str = ""):
     """
     t0 = time.perf_counter()
     eps = SLEPc.EPS().create(K.getComm())
+    vectors = []
+    try:
+        _configure(eps, K, M, nmodes, which, prefix)
+        eps.solve()
+        nconv = eps.getConverged()
+        if nconv < nmodes:
+            raise NumericalError(f"SLEPc converged {nconv} of {nmodes} eigenpairs "
+                                 f"(reason {eps.getConvergedReason()})")
+        values = []
+        for k in range(nconv):
+            vectors.append(K.createVecRight())
+            values.append(eps.getEigenpair(k, vectors[-1]).real)
+        order = np.argsort(values)
+        if which == "largest":
+            order = order[::-1]
+        keep = order[:nmodes]
+        result = SlepcResult(np.array(values)[keep], [vectors[k] for k in keep],
+                             time.perf_counter() - t0, eps.getType(), eps.getST().getType())
+        for k in order[nmodes:]:
+            vectors[k].destroy()
+        return result
+    except BaseException:
+        for v in vectors:
+            v.destroy()
+        raise
+    finally:
+        eps.destroy()
+
+
+def _configure(eps, K, M, nmodes, which, prefix):
+    """The defaults of :func:`slepc_solve`, then the options database's word."""
     eps.setOptionsPrefix(prefix)
     eps.setOperators(K, M)
     eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
@@ -123,24 +154,6 @@ def slepc_solve(K, M, nmodes: int, which: str = "smallest", prefix: str = ""):
     else:
         eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
     eps.setFromOptions()
-    eps.solve()
-    nconv = eps.getConverged()
-    if nconv < nmodes:
-        raise NumericalError(f"SLEPc converged {nconv} of {nmodes} eigenpairs "
-                             f"(reason {eps.getConvergedReason()})")
-    values, vectors = [], []
-    for k in range(nconv):
-        v = K.createVecRight()
-        values.append(eps.getEigenpair(k, v).real)
-        vectors.append(v)
-    order = np.argsort(values)
-    if which == "largest":
-        order = order[::-1]
-    order = order[:nmodes]
-    result = SlepcResult(np.array(values)[order], [vectors[k] for k in order],
-                         time.perf_counter() - t0, eps.getType(), eps.getST().getType())
-    eps.destroy()
-    return result
 
 
 def mac(a, b) -> float:

@@ -69,3 +69,37 @@ def test_stage_is_popped_when_its_block_raises():
                 raise ValueError
     with stage:
         pass
+
+
+def test_slepc_solver_is_destroyed_when_the_solve_fails(monkeypatch):
+    from solver import eigen
+    from solver.errors import NumericalError
+
+    made = scene.build(PETSc.COMM_WORLD, scene_options(analysis="eigen"))
+    _, _, K, M, _ = made
+    solvers = []
+    configure = eigen._configure
+
+    def keep(eps, *args):
+        solvers.append(eps)
+        configure(eps, *args)
+
+    monkeypatch.setattr(eigen, "_configure", keep)
+    try:
+        # More modes than the model has: SLEPc converges fewer than asked.
+        with pytest.raises(NumericalError, match="SLEPc converged"):
+            eigen.slepc_solve(K, M, K.getSize()[0] + 5)
+    finally:
+        scene.destroy(*reversed(made))
+    assert len(solvers) == 1 and not solvers[0].handle
+
+
+def test_f1_solve_takes_its_own_options_prefix(cli):
+    # f1 by SLEPc (-mpm_eigen_solver slepc): -f1_eps_view shows its solver, and -eps_view,
+    # an eigen analysis's option, is not the f1 solve's.
+    args = ["-mpm_Tv_end", "0.001", "-mpm_Tv_report", "0.001", "-mpm_figures", "0",
+            "-mpm_eigen_solver", "slepc"]
+    res = cli(args + ["-f1_eps_view"], options_file="consolidation-m1-q4")
+    assert res.returncode == 0 and "EPS Object: (f1_)" in res.stdout
+    res = cli(args + ["-eps_view"], options_file="consolidation-m1-q4")
+    assert res.returncode == 0 and "EPS Object" not in res.stdout
