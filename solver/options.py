@@ -469,6 +469,9 @@ def command_line(argv, db=None):
         # them), so they are read here. -help is the caller's to act on: in the database it
         # would change how PETSc finalises.
         for name, value in pairs:
+            if name == "options_file_yaml":
+                raise InputError("-options_file_yaml: only on a command line; from Python "
+                                 "give -options_file")
             if name == "options_file":
                 for option, text in _file_pairs(value):
                     db.setValue(option, text)
