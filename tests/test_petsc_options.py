@@ -164,3 +164,43 @@ def test_fe_prefix_reaches_the_reference_solve(tmp_path):
     assert stdout.count("EPS Object") == 1 and "(fe_)" in stdout, stdout
     assert "SLEPc krylovschur, ST sinvert:" in stdout
     assert s["slepc"]["type"] == "krylovschur"
+
+
+def test_command_line_in_process_holds_for_the_call_only(tmp_path):
+    """options.command_line: the files first, the rest of the line over them, negative
+    numbers as values, flags without one; the database as it was afterwards."""
+    from petsc4py import PETSc
+
+    from solver import options
+
+    db = PETSc.Options()
+    db.setValue("mpm_test_kept", "1")
+    before = db.getAll()
+    scene = tmp_path / "s.opts"
+    scene.write_text("-mpm_nu 0.25  # a comment\n\n-mpm_k 1e-4\n-mpm_debug\n")
+    try:
+        with options.command_line(["solver", "-mpm_k", "-2.5e-5", "-options_file", str(scene),
+                                   "-mpm_test_kept", "2", "-help"]) as inside:
+            assert inside.getAll() == {**before, "mpm_nu": "0.25", "mpm_k": "-2.5e-5",
+                                       "mpm_debug": None, "mpm_test_kept": "2"}
+        assert db.getAll() == before
+        with pytest.raises(options.InputError, match="'stray'"):
+            with options.command_line(["solver", "stray"]):
+                pass
+        assert db.getAll() == before
+    finally:
+        db.delValue("mpm_test_kept")
+
+
+def test_main_in_process_twice_gives_the_same_run(cli, tmp_path):
+    """Two calls of the command line in one process: the second sees none of the first's
+    options, and gives the same summary as a subprocess."""
+    args = ["-mpm_Tv_end", "0.002", "-mpm_Tv_report", "0.002", "-mpm_figures", "0"]
+    first = cli(args + ["-mpm_k", "1e-4"], options_file="consolidation-m1-q4",
+                out_dir=tmp_path / "a")
+    second = cli(args, options_file="consolidation-m1-q4", out_dir=tmp_path / "b")
+    apart = cli(args, options_file="consolidation-m1-q4", out_dir=tmp_path / "c", process=True)
+    assert first.summary["provenance"]["options"]["mpm"]["k"] == 1e-4
+    for key in ("dt", "steps", "monitor", "profile_l2"):
+        assert second.summary[key] == apart.summary[key], key
+    assert second.summary["provenance"]["options"]["mpm"]["k"] == 2.5e-4
