@@ -3,7 +3,6 @@ hang is reported rather than waited for."""
 
 from __future__ import annotations
 
-
 from conftest import PYTHON, REPO, run_command
 
 SAMPLE = '''
