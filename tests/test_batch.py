@@ -56,8 +56,9 @@ def _unwritable(kind, tmp_path):
     ("file", "eigen-q4", 1), ("file", "consolidation-m1-q4", 1),
     ("under-a-file", "consolidation-m1-q4", 1), ("proc", "eigen-q4", 1),
     ("read-only", "consolidation-m1-q4", 1),
-    ("proc", "consolidation-m1-q4", 2), ("read-only", "eigen-q4", 2),
-    ("file", "consolidation-m1-q4", 2)])
+    *(pytest.param(*case, marks=pytest.mark.mpi(2)) for case in [
+        ("proc", "consolidation-m1-q4", 2), ("read-only", "eigen-q4", 2),
+        ("file", "consolidation-m1-q4", 2)])])
 def test_unwritable_output_is_refused_before_computing(cli, tmp_path, kind, scene, ranks):
     out = _unwritable(kind, tmp_path)
     res = cli(["-mpm_figures", "0", "-mpm_output", out], options_file=scene, ranks=ranks,
@@ -207,7 +208,8 @@ def test_eigen_failure_in_the_writing_is_agreed_by_every_rank(tmp_path, ranks):
 # -- 4. eigen failures write the summary -----------------------------------------------------
 @pytest.mark.parametrize("args, ranks, says", [
     (["-mpm_jacobi_max_sweeps", "2"], 1, "Jacobi did not converge in 2 sweeps"),
-    (["-mpm_jacobi_max_sweeps", "2"], 2, "Jacobi did not converge in 2 sweeps"),
+    pytest.param(["-mpm_jacobi_max_sweeps", "2"], 2, "Jacobi did not converge in 2 sweeps",
+                 marks=pytest.mark.mpi(2)),
     (["-mpm_element", "q9", "-mpm_eigen_solver", "slepc"], 1, "consistent mass is singular")])
 def test_eigen_failure_writes_the_summary(cli, tmp_path, args, ranks, says):
     res = cli(args + ["-mpm_figures", "0"], options_file="eigen-q4", ranks=ranks)

@@ -25,6 +25,7 @@ def _same(a, b, rtol=1e-12):
     assert a["steps"] == b["steps"] and a["dt"] == b["dt"]
 
 
+@pytest.mark.mpi(2)
 @pytest.mark.parametrize("first,second,extra", [
     (1, 2, []), (2, 1, []), (2, 1, ["-mpm_kinematics", "large"]),
     (1, 2, ["-mpm_element", "q8", "-mpm_ppc", "3"])])
@@ -74,7 +75,7 @@ def test_sigterm_checkpoints_and_the_restart_matches(cli, tmp_path):
                         out_dir=tmp_path / "full"))
     assert summary["steps"] < full["steps"]
     rest = check_ok(cli(SCENE + end + ["-mpm_restart", out / "checkpoint.npz"], ranks=2,
-                        options_file="consolidation-m1-q4", out_dir=out))
+                        options_file="consolidation-m1-q4", out_dir=out, process=True))
     _same(full, rest)
 
 
