@@ -108,7 +108,8 @@ def run_command(cmd, timeout=180, cwd=REPO):
 def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=None,
             process: bool = False):
     """Run the solver's command line; returns :class:`CliResult` (a 4-tuple
-    (returncode, stdout, stderr, summary dict or None)), the same on every rank.
+    (returncode, stdout, stderr, summary dict or None)), the same on every rank: rank 0's
+    exit code, the output of every rank in rank order (as mpirun shows it).
 
     ``args``: command-line arguments after ``-m solver``. ``-mpm_output out_dir`` is appended
     unless ``args`` already names an output folder. ``options_file``: a scene name
@@ -141,8 +142,8 @@ def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=No
 
 
 def _run_here(args, ranks):
-    """(exit code, stdout, stderr) of ``solver.__main__.main`` in this process, from rank 0
-    on every rank, after every rank has returned (rank 0 writes the files)."""
+    """(exit code, stdout, stderr) of ``solver.__main__.main`` in this process, the same on
+    every rank, after every rank has returned (rank 0 writes the files)."""
     from mpi4py import MPI
     from petsc4py import PETSc
     # On every rank: SLEPc started by rank 0 alone would hang PETSc's finalisation.
@@ -171,7 +172,10 @@ def _run_here(args, ranks):
         request = world.Ibarrier()
         while not request.Test():
             time.sleep(0.005)
-    return world.bcast(result, root=0)
+        return world.bcast(result, root=0)
+    # As mpirun shows them: rank 0's exit code, every rank's output, rank by rank.
+    every = world.allgather(result)
+    return (every[0][0], "".join(r[1] for r in every), "".join(r[2] for r in every))
 
 
 class _Streams:

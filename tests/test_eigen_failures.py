@@ -57,6 +57,7 @@ def test_too_few_points_singular_mass(cli, ref_shapes, element, ppc, need):
     assert rank == scaled_rank(M) < n
 
 
+@pytest.mark.mpi(2)
 def test_singular_mass_under_mpi(cli):
     """The same diagnosis on two ranks: one line, exit 3, no hang."""
     res = cli(["-mpm_element", "q9", "-mpm_ppc", "2", "-mpm_figures", "0"], ranks=2,

@@ -75,6 +75,7 @@ def test_vtu_modes(paper_run, element):
     assert s["files"]["modes_vtu"] == str(out / "modes.vtu")
 
 
+@pytest.mark.mpi(2)
 @pytest.mark.parametrize("element", ["q4", "q9"])
 def test_vtu_same_on_two_ranks(paper_run, element):
     """The modes gathered from 2 ranks equal the 1-rank modes (same normalisation, sign)."""

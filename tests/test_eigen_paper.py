@@ -151,6 +151,7 @@ def test_fe_gauss_quadratic_equals_abaqus_cpe8(paper_run, element):
                                                                     abs=1e-9)
 
 
+@pytest.mark.mpi(2)
 def test_fine_q9_column_approaches_rod(cli, paper_run):
     """1 x 40 Q9 cells (nu = 0.3: the rod uses the constrained modulus): both solvers within
     0.5 % of the rod, and closer than the 1 x 10 grid of the paper."""

@@ -26,6 +26,7 @@ def assert_same_model(s1, sn, ranks):
     assert min(sn["cross_check"]["mac"]) > 0.999999
 
 
+@pytest.mark.mpi(2)
 @pytest.mark.parametrize("element", ELEMENTS)
 def test_paper_scene_two_ranks(paper_run, element):
     s1 = check_ok(paper_run(element, 1)[0])
@@ -36,6 +37,7 @@ def test_paper_scene_two_ranks(paper_run, element):
     assert res2.stderr.count("solver: error") == 0
 
 
+@pytest.mark.mpi(2)
 def test_wide_grid_two_ranks(cli, tmp_path):
     """4 x 6 Q9 cells, nu = 0.3 (modes with lateral motion), on 1 and 2 ranks."""
     s1 = check_ok(cli(WIDE, options_file="eigen-q9", out_dir=tmp_path / "n1"))
@@ -44,6 +46,7 @@ def test_wide_grid_two_ranks(cli, tmp_path):
     assert_same_model(s1, s2, 2)
 
 
+@pytest.mark.mpi(4)
 def test_four_ranks_cut_in_both_directions(cli, tmp_path):
     """4 x 4 Q4 cells on 4 ranks: a 2 x 2 process grid, every rank owns 2 x 2 cells."""
     args = ["-mpm_cells", "4,4", "-mpm_size", "0.4,0.4", "-mpm_nu", "0.25",
@@ -53,6 +56,7 @@ def test_four_ranks_cut_in_both_directions(cli, tmp_path):
     assert_same_model(s1, s4, 4)
 
 
+@pytest.mark.mpi(3)
 @pytest.mark.parametrize("element, cells, size", [
     ("q8", "3,2", "0.3,0.2"),     # 3 ranks: one column of 2 cells each
     ("q4", "1,10", "0.1,1.0"),    # 3 ranks: 4, 3, 3 cells
@@ -65,6 +69,7 @@ def test_three_ranks_with_few_cells_each(cli, tmp_path, element, cells, size):
     assert_same_model(s1, s3, 3)
 
 
+@pytest.mark.mpi(3)
 def test_more_ranks_than_cells_is_input_error(cli, tmp_path):
     out = tmp_path / "out"
     res = cli(["-mpm_cells", "1,2"], ranks=3, options_file="eigen-q4", out_dir=out)
@@ -75,6 +80,7 @@ def test_more_ranks_than_cells_is_input_error(cli, tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.mpi(2)
 def test_tiny_model_on_two_ranks(cli, tmp_path):
     """A model with 2 free DOFs (1 x 2 Q4 cells, top fixed too) on 2 ranks: each rank owns a
     cell, but the Jacobi solver's single pair leaves one rank without rows. Must give the
@@ -88,6 +94,7 @@ def test_tiny_model_on_two_ranks(cli, tmp_path):
     assert_same_model(s1, s2, 2)
 
 
+@pytest.mark.mpi(2)
 def test_blocked_model_two_ranks(cli, tmp_path):
     """A model in the blocked range (2 x 40 Q9 cells, nu = 0.3: 640 DOFs, 10 blocks of 64):
     one rank (pair problems swept in a worker thread) and two (block pairs split between the

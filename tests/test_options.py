@@ -111,6 +111,7 @@ def test_consolidation_option_rejected_in_eigen_run(cli, tmp_path):
     assert "eigen" in line
 
 
+@pytest.mark.mpi(2)
 def test_bad_input_under_mpi_prints_one_line(cli, tmp_path):
     out = tmp_path / "out"
     res = cli(["-mpm_nu", "0.5"], ranks=2, options_file="eigen-q4", out_dir=out)
