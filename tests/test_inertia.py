@@ -254,6 +254,7 @@ def test_explicit_drag_infeasible_names_the_cure(cli, tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.mpi(2)
 def test_two_ranks_equal_one(cli, tmp_path):
     args = QUIET + ["-mpm_Tv_end", "0.1", "-mpm_Tv_report", "0.05,0.1"]
     a = check_ok(cli(args, options_file="consolidation-clay", out_dir=tmp_path / "n1"))
@@ -264,6 +265,7 @@ def test_two_ranks_equal_one(cli, tmp_path):
                                rtol=1e-10)
 
 
+@pytest.mark.mpi(2)
 def test_restart_keeps_scaling_and_drag(cli, tmp_path):
     """auto depends on the earliest report time, which a restart may change: the factor of
     the first run is kept; another drag or factor is refused."""

@@ -90,7 +90,7 @@ def m1_run(tmp_path_factory):
     return get
 
 
-@pytest.fixture(params=[1, 2], ids=["1rank", "2ranks"])
+@pytest.fixture(params=[1, pytest.param(2, marks=pytest.mark.mpi(2))], ids=["1rank", "2ranks"])
 def m1(request, m1_run):
     return m1_run(request.param)
 
@@ -198,6 +198,7 @@ def test_xdmf_series_at_the_report_times(m1):
         assert np.all(np.isfinite(data["pore_pressure"]))
 
 
+@pytest.mark.mpi(2)
 def test_xdmf_same_on_two_ranks(m1_run):
     """The 2-rank series equals the 1-rank one, point by point (matched by position)."""
     _, _, steps1, geo1 = _series(m1_run(1)[1] / "points.xdmf")
@@ -278,7 +279,7 @@ def test_provenance_consolidation(m1):
 
 
 # -- eigen: the modes file's frequencies, provenance, formats -------------------------------
-@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))])
 def test_modes_file_carries_frequencies(paper_run, ranks):
     res, out = paper_run("q4", ranks)
     s = check_ok(res)
@@ -336,6 +337,7 @@ def test_xdmf_index_is_whole_after_every_step(tmp_path):
     assert again.index() == series.index()
 
 
+@pytest.mark.mpi(2)
 def test_restart_continues_series_and_settlement(cli, tmp_path):
     """A run stopped after a checkpoint and restarted (on 2 ranks) in the same folder: the
     series keeps the steps written before the checkpoint and rewrites the later ones, the
