@@ -129,19 +129,36 @@ sys.exit(main(sys.argv))
 
 
 def _inject(tmp_path, target, args, ranks=1, timeout=180):
-    """Run the solver with ``target`` ("module.function") replaced by one that raises
-    MemoryError; returns (code, stdout, stderr)."""
+    """Run the solver in a subprocess with ``target`` ("module.function") replaced by one
+    that raises MemoryError; returns (code, stdout, stderr). For failures that end the
+    process (an MPI abort); :func:`inject` does the rest in-process."""
     wrapper = tmp_path / "inject.py"
     wrapper.write_text(INJECT.format(repo=str(REPO)))
     cmd = mpi_command(ranks, [PYTHON, wrapper, target, *args])
     return run_command(cmd, timeout=timeout)
 
 
-@pytest.mark.parametrize("ranks", [1, 2])
-def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(tmp_path, ranks):
+def _fail(*args, **kwargs):
+    raise MemoryError("injected")
+
+
+@pytest.fixture
+def inject(cli, monkeypatch):
+    """``inject(target, args, ranks=1)``: the command line ``args`` run in-process with
+    ``target`` ("module.function") replaced by one that raises MemoryError; a CliResult."""
+    def run(target, args, ranks=1):
+        with monkeypatch.context() as patch:
+            patch.setattr(target, _fail)
+            return cli(args, ranks=ranks)
+    return run
+
+
+@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))])
+def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(inject, cli, tmp_path,
+                                                                       ranks):
     out = tmp_path / "out"
     args = ["-options_file", M1, *SHORT, "-mpm_output", out]
-    code, stdout, stderr = _inject(tmp_path, "solver.consolidation._write_files", args, ranks)
+    code, stdout, stderr, _ = inject("solver.consolidation._write_files", args, ranks)
     assert code == 5, stderr
     lines = _error_lines(stderr)
     assert len(lines) == 1 and "internal error: MemoryError: injected" in lines[0]
@@ -152,20 +169,19 @@ def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(tmp_path, 
     assert (out / "checkpoint.npz").exists() and s["files"]["checkpoint"] == str(
         out / "checkpoint.npz")
     # The checkpoint holds the whole run: a restart only does the reporting again.
-    res = run_command(mpi_command(ranks, [PYTHON, "-m", "solver", *args, "-mpm_restart",
-                                          out / "checkpoint.npz"]))
-    assert res[0] == 0, res[2]
+    res = cli([*args, "-mpm_restart", out / "checkpoint.npz"], ranks=ranks)
+    assert res.returncode == 0, res.stderr
     again = _summary(out)
     assert again["completed"] is True and again["steps"] == s["steps"]
     assert again["monitor"]["Tv"] == [0.02]
 
 
-def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(tmp_path):
+def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(inject, tmp_path):
     """A failure between the step and its reports leaves no state whose records agree:
     the summary says so, no checkpoint is written."""
     out = tmp_path / "out"
-    code, _, stderr = _inject(tmp_path, "solver.consolidation.report",
-                              ["-options_file", M1, *SHORT, "-mpm_output", out])
+    code, _, stderr, _ = inject("solver.consolidation.report",
+                                ["-options_file", M1, *SHORT, "-mpm_output", out])
     assert code == 5 and stderr.count("\n") == 1, stderr
     assert "internal error: MemoryError: injected" in stderr
     s = _summary(out)
@@ -182,12 +198,12 @@ def test_failure_on_some_ranks_inside_the_stepping_aborts_rather_than_hangs(tmp_
     assert "internal error on rank" in stderr and "MemoryError: injected" in stderr
 
 
-def test_internal_error_traceback_only_with_debug(tmp_path):
+def test_internal_error_traceback_only_with_debug(inject, tmp_path):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_figures", "0", "-mpm_output", out]
-    code, _, stderr = _inject(tmp_path, "solver.eigen._print_table", args + ["-mpm_debug"])
+    code, _, stderr, _ = inject("solver.eigen._print_table", args + ["-mpm_debug"])
     assert code == 5 and "Traceback" in stderr and "MemoryError: injected" in stderr
-    code, _, stderr = _inject(tmp_path, "solver.eigen._print_table", args)
+    code, _, stderr, _ = inject("solver.eigen._print_table", args)
     assert code == 5 and stderr.count("\n") == 1 and "Traceback" not in stderr
     s = _summary(out)
     assert s["completed"] is False and s["error"]["kind"] == "internal"
@@ -195,11 +211,11 @@ def test_internal_error_traceback_only_with_debug(tmp_path):
     assert len(s["frequencies_hz"]["jacobi"]) == 5 and "references" in s
 
 
-@pytest.mark.parametrize("ranks", [1, 2])
-def test_eigen_failure_in_the_writing_is_agreed_by_every_rank(tmp_path, ranks):
+@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))])
+def test_eigen_failure_in_the_writing_is_agreed_by_every_rank(inject, tmp_path, ranks):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_output", out]
-    code, _, stderr = _inject(tmp_path, "solver.eigen.mode_figure", args, ranks)
+    code, _, stderr, _ = inject("solver.eigen.mode_figure", args, ranks)
     assert code == 5 and "MPI_ABORT" not in stderr, stderr
     assert len(_error_lines(stderr)) == 1
     assert _summary(out)["error"]["exit_code"] == 5

@@ -1,25 +1,17 @@
 """The generalized Jacobi solver (solver.jacobi) on its own: random SPD pencils against numpy,
 eq. (3) rotations, the round-robin ordering, the blocked method (block sizes, orderings, every
-pair once per sweep), failures, and the same checks under MPI.
-
-Run as a script (``mpirun -n N python tests/test_eigen_jacobi.py CHECK FOLDER``) it performs
-one of the MPI checks below and writes FOLDER/rank-R.txt per rank; the tests start it through
-mpirun.
+pair once per sweep), failures, and the same checks on 2 and 3 ranks (``mpi`` tests).
 """
 
 from __future__ import annotations
 
-import os
-import sys
-
 import numpy as np
-
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import pytest
 
 RTOL = 1e-10
 
 
-# -- helpers shared by the tests and the MPI script --------------------------------------
+# -- helpers ------------------------------------------------------------------------------
 def random_pencil(n, seed):
     """Random symmetric positive definite K and M (n x n), moderately conditioned."""
     rng = np.random.default_rng(seed)
@@ -89,10 +81,6 @@ def check_pencil(n, seed, nmodes=None, block=None):
     K.destroy()
     M.destroy()
     return eig_err, orth, resid, res.sweeps
-
-
-# -- in-process tests ---------------------------------------------------------------------
-import pytest  # noqa: E402
 
 
 @pytest.mark.parametrize("n, seed", [(37, 1), (60, 2), (1, 3), (2, 4), (5, 5)])
@@ -389,105 +377,45 @@ def test_fast_rotations_match_rotation_parameters():
     np.testing.assert_allclose(out[:, 0, 1], g, rtol=1e-12, atol=1e-15)
 
 
-# -- under MPI ------------------------------------------------------------------------------
-def _run_script(ranks, check, tmp_path, timeout=60):
-    """Run this file as an MPI script; returns (exit code, stdout, stderr, {rank: words})
-    where each rank's words come from the file it wrote (a line per rank, no interleaving)."""
-    from conftest import PYTHON, mpi_command, run_command
-
-    cmd = mpi_command(ranks, [PYTHON, os.path.abspath(__file__), check, str(tmp_path)])
-    code, out, err = run_command(cmd, timeout=timeout)
-    lines = {}
-    for r in range(ranks):
-        f = tmp_path / f"rank-{r}.txt"
-        if f.is_file():
-            lines[r] = f.read_text().split()
-    return code, out, err, lines
+# -- under MPI: every rank solves its share and checks the whole ---------------------------
+def _assert_accurate(n, seed, **kwargs):
+    eig_err, orth, resid, _ = check_pencil(n, seed, **kwargs)
+    assert eig_err <= RTOL and orth <= RTOL and resid <= RTOL, (n, eig_err, orth, resid)
 
 
-@pytest.mark.parametrize("ranks", [2, 3])
-def test_blocked_pencil_under_mpi(ranks, tmp_path):
+@pytest.mark.parametrize("ranks", [pytest.param(r, marks=pytest.mark.mpi(r)) for r in (2, 3)])
+def test_blocked_pencil_under_mpi(ranks):
     """The blocked method with block pairs spread over the ranks (block rows that travel
     between ranks after every round): same accuracy as on one rank."""
-    code, out, err, lines = _run_script(ranks, "blocked", tmp_path)
-    assert code == 0, out + err[-3000:]
-    assert sorted(lines) == list(range(ranks)), out + err[-3000:]
-    for rank, words in lines.items():
-        assert words[0] == "OK", (rank, words, out, err[-3000:])
+    for n, block, seed in ((101, (8, 2, 1), 5), (96, (16, 4, 1), 6), (150, None, 7)):
+        _assert_accurate(n, seed, nmodes=10, block=block)
 
 
-@pytest.mark.parametrize("ranks", [2, 3])
-def test_random_spd_pencil_under_mpi(ranks, tmp_path):
+@pytest.mark.parametrize("ranks", [pytest.param(r, marks=pytest.mark.mpi(r)) for r in (2, 3)])
+def test_random_spd_pencil_under_mpi(ranks):
     """n = 37 (odd), 60 and 11 on several ranks: same accuracy as on one."""
-    code, out, err, lines = _run_script(ranks, "pencil", tmp_path)
-    assert code == 0, out + err[-3000:]
-    assert sorted(lines) == list(range(ranks)), out + err[-3000:]
-    for rank, words in lines.items():
-        assert words[0] == "OK", (rank, words, out, err[-3000:])
+    for n, seed in ((37, 1), (60, 2), (11, 3)):
+        _assert_accurate(n, seed)
 
 
-def test_indefinite_mass_under_mpi_raises_on_every_rank(tmp_path):
+@pytest.mark.mpi(2)
+def test_indefinite_mass_under_mpi_raises_on_every_rank():
     """Every rank must raise NumericalError (not only the rank holding the bad pivot)."""
-    code, out, err, lines = _run_script(2, "indefinite", tmp_path, timeout=10)
-    assert code == 0 and sorted(lines) == [0, 1], (
-        f"exit {code}, ranks: {lines}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
-    for rank, words in lines.items():
-        assert words[0] == "NumericalError", (rank, words)
-
-
-def test_tiny_pencil_on_more_ranks_than_pairs(tmp_path):
-    """n = 2 on 2 ranks: one pair, so rank 0 owns no slot; the solve must still work."""
-    n = 2
-    code, out, err, lines = _run_script(2, f"tiny{n}", tmp_path, timeout=10)
-    assert code == 0 and sorted(lines) == [0, 1], (
-        f"exit {code}, ranks: {lines}\nstdout:\n{out}\nstderr:\n{err[-3000:]}")
-    for rank, words in lines.items():
-        assert words[0] == "OK", (rank, words)
-
-
-def _mpi_main(check, folder):
-    import petsc4py
-
-    petsc4py.init([])
-    from petsc4py import PETSc
-
     from solver import jacobi
     from solver.errors import NumericalError
 
-    rank = PETSc.COMM_WORLD.getRank()
-    status = "OK"
+    Kd, Md = np.eye(4), np.eye(4)
+    Md[0:2, 0:2] = [[1.0, 2.0], [2.0, 1.0]]
+    K, M = petsc_mat(Kd), petsc_mat(Md)
     try:
-        if check == "pencil":
-            for n, seed in ((37, 1), (60, 2), (11, 3)):
-                eig_err, orth, resid, _ = check_pencil(n, seed)
-                if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
-                    status = f"FAIL n={n} eig={eig_err:.2e} orth={orth:.2e} res={resid:.2e}"
-        elif check == "blocked":
-            for n, block, seed in ((101, (8, 2, 1), 5), (96, (16, 4, 1), 6), (150, None, 7)):
-                eig_err, orth, resid, _ = check_pencil(n, seed, nmodes=10, block=block)
-                if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
-                    status = f"FAIL n={n} eig={eig_err:.2e} orth={orth:.2e} res={resid:.2e}"
-        elif check == "indefinite":
-            Kd = np.eye(4)
-            Md = np.eye(4)
-            Md[0:2, 0:2] = [[1.0, 2.0], [2.0, 1.0]]
-            try:
-                jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 2)
-                status = "no-error"
-            except NumericalError:
-                status = "NumericalError"
-        elif check.startswith("tiny"):
-            n = int(check[4:])
-            eig_err, orth, resid, _ = check_pencil(n, 40 + n)
-            if not (eig_err <= RTOL and orth <= RTOL and resid <= RTOL):
-                status = f"FAIL eig={eig_err:.2e}"
-        else:
-            status = f"unknown-check-{check}"
-    except Exception as exc:  # report, do not hang the other ranks silently
-        status = f"{type(exc).__name__}:{str(exc)[:80].replace(' ', '_')}"
-    with open(os.path.join(folder, f"rank-{rank}.txt"), "w") as fh:
-        fh.write(status + "\n")
+        with pytest.raises(NumericalError):
+            jacobi.solve(K, M, 2)
+    finally:
+        K.destroy()
+        M.destroy()
 
 
-if __name__ == "__main__":
-    _mpi_main(sys.argv[1], sys.argv[2])
+@pytest.mark.mpi(2)
+def test_tiny_pencil_on_more_ranks_than_pairs():
+    """n = 2 on 2 ranks: one pair, so rank 0 owns no slot; the solve must still work."""
+    _assert_accurate(2, 42)
