@@ -482,23 +482,14 @@ def nodal_update(C, dt, load_factor, damping):
 # -- grid to points -------------------------------------------------------------------------
 @_jit
 def grid_to_points(off, C, hrz, blend, dt, flip):
-    """Grid to points from O (ghosted-local nodes x NG): point velocities (FLIP, or the
-    FLIP/PIC blend ``flip``), effective stress (D d eps), pore pressure (eqs. 8-9; with the
-    projection its increments' nodal sums w V dp go to ``pacc`` instead), positions x +=
-    dt v_s^{k+1}, the viscous stress eta div v_s, fast-part damping and the volume ratio J."""
+    """Grid to points from O (ghosted-local nodes x NG): velocities (FLIP, or FLIP/PIC blend
+    ``flip``), stress (D d eps), pore pressure (eqs. 8-9; projected: nodal sums w V dp into
+    ``pacc``), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, volume ratio J."""
     n, project = C[PN], C[IPROJ]
     R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
-    x, xr, V = _points(C, PX, 2), _points(C, PXREF, 2), _points1(C, PV)
-    vs, vl, sig, pp = _points(C, PVS, 2), _points(C, PVL, 2), _points(C, PSIG, 3), \
-        _points1(C, PP)
-    J, visc, vslow = _points1(C, PJ), _points1(C, PVISC), _points(C, PVSLOW, 2)
-    D = R[RD:RD + 9]
-    n_ = R[RN]
+    x, xr, V, vs, vl, sig, pp, J, visc, vslow = _g2p_fields(C)
     blended = blend is not None
-    cdiv = 1.0 if blended else 1.0 - n_    # div v_s + n div(v_l - v_s), or (1 - n) div v_s
-    kdp = dt * R[RKL] / n_
-    eta, fast, slow = R[RETA], R[RFAST], R[RSLOW]
-    fs, fl = R[RCS] / (R[RCS] + R[RCL]), R[RCL] / (R[RCS] + R[RCL])
+    D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
     pic = flip != 1.0
     On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
     if project:
@@ -507,8 +498,7 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
-    # Sums over the nodes of S[r, a] O[a, f], per row r of S: N, dN/dx, dN/dy, and with the
-    # blended basis N_hat and its derivatives (a few vector operations per node).
+    # Sums over nodes of S[r, a] O[a, f] per row of S: N, dN/dx, dN/dy (and blended N_hat).
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))
     nr = 3 if blend is None else NS
     for k in range(n):
@@ -540,8 +530,8 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
         l00, l01, l10, l11 = A[SX, 4], A[SY, 4], A[SX, 5], A[SY, 5]    # grad v_s [i, j]
         dvl = A[rlx, 6] + A[rly, 7]                                    # div v_l
         if blended:
-            # div (v_l - v_s) in the liquid's basis: the storage term is then div v_s +
-            # n div(v_l - v_s), whose power the liquid force balances exactly.
+            # div(v_l - v_s) in the liquid's basis: storage div v_s + n div(v_l - v_s), whose
+            # power the liquid force balances exactly.
             dvl -= A[SLX, 4] + A[SLY, 5]
         if pic:
             vs[k, 0] = flip * (vs[k, 0] + dt * a0) + (1 - flip) * a4
@@ -571,6 +561,24 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
         if fast > 0.0:
             _damp_fast(vs, vl, vslow, k, fs, fl, dt * slow, dt * fast)
         J[k] *= divs * dt + 1.0                  # volume ratio of the solid
+
+
+@_jit
+def _g2p_fields(C):
+    """The point fields grid_to_points writes or reads, as views into the points' arrays."""
+    return (_points(C, PX, 2), _points(C, PXREF, 2), _points1(C, PV), _points(C, PVS, 2),
+            _points(C, PVL, 2), _points(C, PSIG, 3), _points1(C, PP), _points1(C, PJ),
+            _points1(C, PVISC), _points(C, PVSLOW, 2))
+
+
+@_jit
+def _g2p_constants(R, blended, dt):
+    """D (Pa), n, the divergence weight, dt K_l / n (Pa), eta (Pa s), the damping rates (1/s)
+    and the phases' mass fractions for grid_to_points."""
+    n_ = R[RN]
+    cdiv = 1.0 if blended else 1.0 - n_    # div v_s + n div(v_l - v_s), or (1 - n) div v_s
+    fs, fl = R[RCS] / (R[RCS] + R[RCL]), R[RCL] / (R[RCS] + R[RCL])
+    return R[RD:RD + 9], n_, cdiv, dt * R[RKL] / n_, R[RETA], R[RFAST], R[RSLOW], fs, fl
 
 
 @_jit
