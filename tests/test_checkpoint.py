@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import REPO, check_ok
+from conftest import REPO, check_ok, clean_env
 
 SCENE = ["-mpm_progress", "0", "-mpm_figures", "0"]
 
@@ -53,8 +53,10 @@ def test_sigterm_checkpoints_and_the_restart_matches(cli, tmp_path):
     cmd = [sys.executable, "-m", "solver", "-options_file",
            str(REPO / "cases" / "consolidation-m1-q4.opts"), *SCENE, *end,
            "-mpm_checkpoint_every", "1000", "-mpm_output", str(out)]
+    # A process of its own: the signal goes to it, not to pytest. clean_env: without it the
+    # child inherits the MPI identity of this process (PMIX_*, OMPI_MCA_ess).
     proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, env=clean_env())
     deadline = time.time() + 120
     while not (out / "checkpoint.npz").exists() and time.time() < deadline:
         time.sleep(0.05)
@@ -74,6 +76,7 @@ def test_sigterm_checkpoints_and_the_restart_matches(cli, tmp_path):
     full = check_ok(cli(SCENE + end, options_file="consolidation-m1-q4",
                         out_dir=tmp_path / "full"))
     assert summary["steps"] < full["steps"]
+    # End-to-end on 2 ranks: as an mpi(2) test every rank would start and kill its own run.
     rest = check_ok(cli(SCENE + end + ["-mpm_restart", out / "checkpoint.npz"], ranks=2,
                         options_file="consolidation-m1-q4", out_dir=out, process=True))
     _same(full, rest)

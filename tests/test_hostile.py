@@ -11,7 +11,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from conftest import REPO
+from conftest import REPO, clean_env
 
 JUNK = ["", "nan", "inf", "-inf", "1e31", "-1e31", "-1", "0", "abc", "1,2,3", ",", "1e-320",
         "99999999999", "0x10", "1..2", "  ", "true", "-0", "1,nan", "q5", "4,", ",4"]
@@ -207,8 +207,10 @@ def test_sigint_and_timed_checkpoints(tmp_path):
     cmd = [sys.executable, "-m", "solver", "-options_file",
            str(REPO / "cases" / "consolidation-m1-q4.opts"), "-mpm_progress", "0",
            "-mpm_figures", "0", "-mpm_checkpoint_seconds", "0.2", "-mpm_output", str(out)]
+    # clean_env: without it the child inherits the MPI identity of this process (PMIX_*,
+    # OMPI_MCA_ess).
     proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, env=clean_env())
     deadline = time.time() + 120
     while not (out / "checkpoint.npz").exists() and time.time() < deadline:
         time.sleep(0.05)
