@@ -25,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 from typing import NamedTuple, Optional
 
@@ -161,7 +162,7 @@ def _run_here(args, ranks):
         cwd = os.getcwd()
         os.chdir(REPO)              # relative paths as from the repository root
         try:
-            with captured() as streams:
+            with captured() as streams, _warnings_to_stderr():
                 code = main(["solver", *args], comm=comm)
         finally:
             os.chdir(cwd)
@@ -176,6 +177,22 @@ def _run_here(args, ranks):
     # As mpirun shows them: rank 0's exit code, every rank's output, rank by rank.
     every = world.allgather(result)
     return (every[0][0], "".join(r[1] for r in every), "".join(r[2] for r in every))
+
+
+@contextlib.contextmanager
+def _warnings_to_stderr():
+    """Python's warnings as a fresh interpreter shows them (on stderr, deprecations hidden),
+    not recorded by pytest: a one-line error check then sees them, as in a subprocess."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+    with warnings.catch_warnings():
+        warnings.resetwarnings()
+        for category in (DeprecationWarning, PendingDeprecationWarning, ImportWarning,
+                         ResourceWarning):
+            warnings.simplefilter("ignore", category)
+        warnings.showwarning = show
+        yield
 
 
 class _Streams:
