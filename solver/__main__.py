@@ -23,6 +23,7 @@ in effect and runs nothing (exit 0).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
@@ -100,7 +101,7 @@ def main(argv=None, comm=None) -> int:
 
     comm = PETSc.COMM_WORLD if comm is None else comm
     try:
-        with options.command_line(argv if hosted else argv[:1]):
+        with options.command_line(argv) if hosted else contextlib.nullcontext():
             return _run(argv, origins, scene_analysis, comm)
     except InputError as exc:    # a command line that is not options
         return _fail(str(exc), 2, comm.getRank())

@@ -359,11 +359,20 @@ def read(spec=None, db=None, origins=None):
                from_file={n: origins[n] for n in given if n in origins}, notes=tuple(notes))
 
 
+def _option_lines(text: str):
+    """(line number, line, words) of each line of an options file that is not empty or a
+    comment."""
+    for number, line in enumerate(text.splitlines(), start=1):
+        words = line.split("#", 1)[0].split()
+        if words:
+            yield number, line, words
+
+
 def _file_pairs(path: str) -> list:
-    """``[(name, value or None)]`` of a plain options file, in its order."""
+    """``[(name, value or None)]`` of a plain options file (checked by scan_file), in order."""
     with open(path, encoding="utf-8") as fh:
-        words = [line.split("#", 1)[0].split() for line in fh]
-    return [(w[0][1:], w[1] if len(w) > 1 else None) for w in words if w]
+        return [(w[0][1:], w[1] if len(w) > 1 else None)
+                for _, _, w in _option_lines(fh.read())]
 
 
 def scan_file(path: str) -> dict:
@@ -384,10 +393,7 @@ def scan_file(path: str) -> dict:
     if "\0" in text:
         raise InputError(f"{path}: not a text file")
     where = {}
-    for number, line in enumerate(text.splitlines(), start=1):
-        tokens = line.split("#", 1)[0].split()
-        if not tokens:
-            continue
+    for number, line, tokens in _option_lines(text):
         if not tokens[0].startswith("-") or len(tokens[0]) < 2 or len(tokens) > 2:
             raise InputError(f"{path}:{number}: expected '-option [value]', found "
                              f"'{line.strip()[:60]}'")
