@@ -88,12 +88,13 @@ def clean_env():
     return env
 
 
-def run_command(cmd, timeout=180, cwd=REPO):
+def run_command(cmd, timeout=180, cwd=REPO, env=None):
     """Run ``cmd`` in its own session; on timeout kill its whole process group (mpirun's
-    ranks included) and report return code 124. Returns (returncode, stdout, stderr)."""
+    ranks included) and report return code 124. ``env``: variables added to
+    :func:`clean_env`. Returns (returncode, stdout, stderr)."""
     proc = subprocess.Popen([str(c) for c in cmd], cwd=str(cwd), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True,
-                            start_new_session=True, env=clean_env())
+                            start_new_session=True, env={**clean_env(), **(env or {})})
     try:
         out, err = proc.communicate(timeout=timeout)
         return proc.returncode, out, err

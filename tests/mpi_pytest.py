@@ -20,8 +20,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
-import sys
 import tempfile
 import threading
 import time
@@ -110,7 +108,9 @@ class _Launcher:
         for item in session.items:
             if ranks_of(item):
                 self.groups.setdefault(ranks_of(item), []).append(item.nodeid)
-        if not self.groups or shutil.which("mpirun") is None:
+        from conftest import MPIRUN
+
+        if not self.groups or MPIRUN is None:
             return
         self.folder = Path(tempfile.mkdtemp(prefix="mpm-test-mpi-"))
         self.thread = threading.Thread(target=self._run_all, daemon=True)
@@ -121,27 +121,20 @@ class _Launcher:
             self._run(ranks, ids)
 
     def _run(self, ranks, ids):
-        from conftest import clean_env
+        from conftest import PYTHON, mpi_command, run_command
 
         folder = self.folder / f"n{ranks}"
         folder.mkdir()
-        env = clean_env()
-        env[RESULTS] = str(folder)
+        root = self.config.rootpath
+        cmd = mpi_command(ranks, [PYTHON, "-m", "pytest", "-q", "--color=no", "-p",
+                                  "no:cacheprovider", "--rootdir", root, *ids])
         # Ranks that wait for another (rank 0 alone running a serial reference) yield the
         # core to this process's serial tests rather than spinning.
-        env["OMPI_MCA_mpi_yield_when_idle"] = "1"
-        cmd = ["mpirun", "-n", str(ranks), "--oversubscribe", sys.executable, "-m", "pytest",
-               "-q", "--color=no", "-p", "no:cacheprovider", "--rootdir", str(self.config.rootpath), *ids]
-        with open(folder / "output.txt", "w") as log:
-            proc = subprocess.Popen(cmd, cwd=str(self.config.rootpath), stdout=log,
-                                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                    env=env, start_new_session=True)
-            try:
-                code = proc.wait(timeout=TIMEOUT)
-            except subprocess.TimeoutExpired:
-                os.killpg(proc.pid, 9)
-                proc.wait()
-                code = f"killed after its timeout of {TIMEOUT:.0f} s"
+        code, out, err = run_command(cmd, timeout=TIMEOUT, cwd=root, env={
+            RESULTS: str(folder), "OMPI_MCA_mpi_yield_when_idle": "1"})
+        (folder / "output.txt").write_text(out + err)
+        if code == 124:
+            code = f"killed after its timeout of {TIMEOUT:.0f} s"
         if code not in (0, 1):     # 1: some test failed, which its report says
             self.failures[ranks] = f"mpirun -n {ranks} python -m pytest: exit {code}"
 
