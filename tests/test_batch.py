@@ -14,8 +14,8 @@ import subprocess
 import sys
 
 import pytest
-from conftest import (CASES, PYTHON, REPO, clean_env, mpi_command, option_entries,
-                      run_command)
+from conftest import (CASES, ONE_AND_TWO_RANKS, PYTHON, REPO, clean_env, mpi_command,
+                      option_entries, run_command)
 
 SHORT = ["-mpm_Tv_end", "0.02", "-mpm_progress", "0", "-mpm_figures", "0"]
 M1 = CASES / "consolidation-m1-q4.opts"
@@ -153,7 +153,7 @@ def inject(cli, monkeypatch):
     return run
 
 
-@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))])
+@ONE_AND_TWO_RANKS
 def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(inject, cli, tmp_path,
                                                                        ranks):
     out = tmp_path / "out"
@@ -211,7 +211,7 @@ def test_internal_error_traceback_only_with_debug(inject, tmp_path):
     assert len(s["frequencies_hz"]["jacobi"]) == 5 and "references" in s
 
 
-@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))])
+@ONE_AND_TWO_RANKS
 def test_eigen_failure_in_the_writing_is_agreed_by_every_rank(inject, tmp_path, ranks):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_output", out]

@@ -17,7 +17,7 @@ import subprocess
 import meshio
 import numpy as np
 import pytest
-from conftest import REPO, check_ok, run_cli
+from conftest import ONE_AND_TWO_RANKS, REPO, check_ok, run_cli
 
 # The scene of cases/consolidation-m1-q4.opts (paper Table 2), SI units.
 H, Q, E_C, K_L, N_POR, K, GAMMA_W = 1.0, 10e3, 10e6, 120e6, 0.3, 2.5e-4, 1000 * 9.81
@@ -279,7 +279,7 @@ def test_provenance_consolidation(m1):
 
 
 # -- eigen: the modes file's frequencies, provenance, formats -------------------------------
-@pytest.mark.parametrize("ranks", [1, pytest.param(2, marks=pytest.mark.mpi(2))])
+@ONE_AND_TWO_RANKS
 def test_modes_file_carries_frequencies(paper_run, ranks):
     res, out = paper_run("q4", ranks)
     s = check_ok(res)
