@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
+from scipy.special import erfc as _erfc
 
 
 def rod_frequencies(E_c: float, rho: float, H: float, nmodes: int) -> np.ndarray:
@@ -24,7 +24,9 @@ def rod_mode(y, H: float, k: int):
 
 
 # Absolute accuracy (units of p0) of the Terzaghi references. The promise is 1e-10; the
-# margin absorbs the round-off of the error-function fit and of the summation.
+# margin absorbs the round-off of erfc (SciPy's, about 3e-16 absolute), of NumPy's exp and
+# sin (a few ulp, their SIMD kernels differ between machines with and without AVX-512) and
+# of the summation.
 TOLERANCE = 1e-13
 # Below this T_v the image form is cheaper than the Fourier series, which would need more
 # than 20 terms (1e6 points, 2 busy cores: at 0.005 series 0.19 s, images 0.17 s; at 0.01
@@ -166,41 +168,6 @@ def _images(z, T):
     for n in range(1, _image_pairs(float(T.max()))):
         acc -= (-1) ** n * (_erfc((2 * n + z) / s) + _erfc((2 * n + 2 - z) / s))
     return acc
-
-
-# numpy has no erfc and SciPy is no dependency: erfc(x) = exp(-x^2) g(x) with g = exp(x^2)
-# erfc(x), smooth and bounded, interpolated at Chebyshev points of [-0.5, 6.5]. The margin
-# left of 0 keeps x = 0 off the end of the interval, where the Clenshaw recurrence loses
-# digits; beyond 6.5 erfc < 4e-20 counts as 0. Absolute error about 3e-15 (tests).
-_ERFC_RANGE = (-0.5, 6.5)
-_ERFC_DEGREE = 40
-
-
-@functools.lru_cache(maxsize=None)
-def _erfc_coefficients():
-    lo, hi = _ERFC_RANGE
-
-    def g(y):                                   # 41 nodes, once per process
-        x = lo + (y + 1) * (hi - lo) / 2
-        return np.array([math.erfc(v) * math.exp(v * v) for v in x])
-
-    return np.polynomial.chebyshev.chebinterpolate(g, _ERFC_DEGREE)
-
-
-def _erfc(x):
-    """erfc(x) for an array of x >= 0, to about 3e-15 absolute."""
-    lo, hi = _ERFC_RANGE
-    near = x < hi
-    out = np.zeros_like(x)
-    if not near.any():
-        return out
-    xn = x if near.all() else x[near]
-    y = (2 * xn - (lo + hi)) / (hi - lo)
-    val = np.polynomial.chebyshev.chebval(y, _erfc_coefficients()) * np.exp(-xn * xn)
-    if near.all():
-        return val
-    out[near] = val
-    return out
 
 
 def consolidation_coefficient(k: float, E_c: float, gamma_w: float) -> float:

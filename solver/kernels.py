@@ -24,7 +24,8 @@ Arguments, all kept between steps (no per-step temporaries):
   nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
   velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected pressure
   increments (1 field) and the static data (NB = 5 per owned node: the load's nodal force,
-  then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y)).
+  then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y); a v_l DOF with 0 is
+  normal to an impermeable side and tied to v_s, see :func:`nodal_update`).
 
 Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__`` (or
 ``NUMBA_CACHE_DIR``), so only the first run on a machine compiles; :func:`warm_up` compiles
@@ -48,7 +49,7 @@ _jit = njit(cache=True, error_model="numpy", fastmath={"contract"})
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
-NB = 5        # static data per owned node: the load's force, free flags of v_s, v_l
+NB = 5        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied)
 
 # C: point count and point-field addresses ...
 (PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW) = range(11)
@@ -441,7 +442,9 @@ def nodal_update(C, dt, load_factor, damping):
     """Accelerations and velocities O (owned nodes x NG) from the sums G (owned nodes x
     C[INF]): v = sum w V v / S, the load's force, local damping of the mixture's
     unbalanced force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
-    (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN)."""
+    (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
+    A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
+    same a and v, zero relative flux), fixed where the solid's is."""
     nf, blend, implicit = C[INF], C[IBLEND], C[IIMPL]
     R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
@@ -467,9 +470,16 @@ def nodal_update(C, dt, load_factor, damping):
                 vmix = cs * vsn + cl * (vln * (Sl * invS) if blend else vln)
                 fm -= abs(fm) * _sign(vmix) * damping
             free_s, free_l = B[b + 1 + d], B[b + 3 + d]
-            if implicit:
+            if free_l == 0.0:
+                # Normal to an impermeable side: no flow relative to the skeleton, w . n = 0.
+                # The liquid moves with the solid, both by the mixture's equation; the
+                # liquid's equation only gives the side's reaction. Held with the solid.
+                Mm = cs * S + cl * Sl
+                a_s = fm / Mm if Mm > 0.0 else 0.0
+                a_l, vln, free_l = a_s, vsn, free_s
+            elif implicit:
                 a_s, a_l = _implicit(coef, fm, fl, vsn, vln, free_s == 0.0 or S <= 0.0,
-                                     free_l == 0.0 or Sl <= 0.0, dt)
+                                     Sl <= 0.0, dt)
             else:
                 a_l = (fl - (vln - vsn) * (cq * Sl)) * (invSl * (1.0 / ct))
                 a_s = (fm - a_l * (cl * Sl)) * (invS * (1.0 / cs))

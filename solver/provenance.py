@@ -5,6 +5,7 @@ option of the run, so that a summary alone reproduces the run.
 
 from __future__ import annotations
 
+import importlib
 import importlib.metadata
 import os
 import platform
@@ -16,7 +17,7 @@ from .options import PREFIX, SPEC
 
 # Distributions whose versions matter to the numbers (PETSc and SLEPc themselves are asked
 # through petsc4py and slepc4py: they are C libraries).
-LIBRARIES = ("petsc4py", "slepc4py", "mpi4py", "numpy", "numba", "meshio", "h5py",
+LIBRARIES = ("petsc4py", "slepc4py", "mpi4py", "numpy", "scipy", "numba", "meshio", "h5py",
              "matplotlib")
 # Debian ships some under other distribution names.
 _ALIASES = {"h5py": ("h5py._debian_h5py_serial", "h5py._debian_h5py_mpi")}
@@ -29,7 +30,7 @@ def collect(comm, p) -> dict:
     info = None
     if comm.getRank() == 0:
         info = {"package": "mpm-geo", "version": __version__, "git": git_state(),
-                "python": platform.python_version(), "libraries": libraries(),
+                "python": platform.python_version(), "libraries": libraries(), "cpu": cpu(),
                 "ranks": comm.getSize(), "argv": list(sys.argv), "options": options(p)}
     return comm.tompi4py().bcast(info, root=0)
 
@@ -70,6 +71,39 @@ def libraries() -> dict:
     for name in LIBRARIES:
         out[name] = _version(name)
     return out
+
+
+def cpu() -> dict:
+    """The processor and the arithmetic NumPy chose on it: the CPU's model name, the
+    machine type, and the SIMD features NumPy's dispatched kernels use (its
+    ``__cpu_features__`` that are on; ``NPY_DISABLE_CPU_FEATURES`` turns some off). Machines
+    with and without AVX-512 take different ``exp``/``sin`` kernels that round differently,
+    so the last digits of a result depend on them."""
+    return {"model": _cpu_model(), "machine": platform.machine(),
+            "numpy_simd": _numpy_simd(),
+            "numpy_disabled": os.environ.get("NPY_DISABLE_CPU_FEATURES") or None}
+
+
+def _cpu_model():
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or None
+
+
+def _numpy_simd():
+    """NumPy's SIMD features in use, in its own order (None where NumPy does not say)."""
+    for module in ("numpy._core._multiarray_umath", "numpy.core._multiarray_umath"):
+        try:
+            features = importlib.import_module(module).__cpu_features__
+        except (ImportError, AttributeError):
+            continue
+        return [name for name, on in features.items() if on]
+    return None
 
 
 def _version(name):

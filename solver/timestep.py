@@ -56,7 +56,8 @@ def wave_speeds(p, S: float = 1.0) -> dict:
 
 
 def impermeable(drained) -> dict:
-    """Liquid components held at zero on the impermeable sides: the normal one, as bcs."""
+    """The liquid's components tied to the solid's on the impermeable sides (no flow
+    relative to the skeleton across them): the normal one, in the form of bcs."""
     normal = {"left": "x", "right": "x", "bottom": "y", "top": "y"}
     return {side: comp for side, comp in normal.items() if side not in drained}
 
@@ -96,10 +97,11 @@ def discrete_limit(comm, p, scheme) -> tuple:
     Linearised (points fixed, no local damping), one step maps the nodal accumulated
     displacements U = (U_s, U_l) and the projected point velocities y = (y_s, y_l) as
         a = L_U U + L_y y                    (nodal accelerations, eqs. 13-14, drag included)
-        U' = U + dt y + dt^2 a               (strain and pore pressure use v + dt a)
+        U' = U + dt P y + dt^2 a             (strain and pore pressure use v = P y + dt a)
         y' = S y + dt R a                    (FLIP / PIC velocity update, projected back)
-    with R = M^-1 sum_p w m_p N_p (the point round trip, not the identity) and
-    S = flip I + (1 - flip) R. With implicit drag L_U and L_y depend on dt (the nodal 2 x 2
+    with R = M^-1 sum_p w m_p N_p (the point round trip, not the identity),
+    S = flip I + (1 - flip) R P, and P the identity but where a liquid DOF normal to an
+    impermeable side takes the solid's velocity (``_tie``). With implicit drag L_U and L_y depend on dt (the nodal 2 x 2
     solve of ``_accelerations``). The limit is the largest dt with spectral radius <= 1,
     found by bisection on dense eigenvalues to 1e-4 relative. This is what the run does: on
     M2-Q4 it gives 7.85e-5 s (runs at 7.5e-5 s are stable, at 8.0e-5 s they blow up), where a
@@ -212,12 +214,29 @@ def _linear_parts(grid, points, p, scheme):
     for b, Rb in enumerate((Rs, Rs, Rl, Rl)):
         R[b * nn:(b + 1) * nn, b * nn:(b + 1) * nn] = Rb
     # Grid node (i, j) is local node j * nx + i on one rank; DOFs are (x block, y block).
+    # A liquid DOF normal to an impermeable side is tied to the solid's: held with it, else
+    # moved by the mixture's equation with the solid's velocity (``tie``, ``kernels``).
     fixed_s = grid.constrained_mask(boundary_conditions(p)).reshape(-1, 2).T.ravel()
-    fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2).T.ravel()
-    free = np.flatnonzero(np.concatenate([~fixed_s, ~fixed_l]) & np.tile(Ms > 0, 4))
+    tied = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2).T.ravel()
+    free = np.flatnonzero(np.concatenate([~fixed_s, ~(tied & fixed_s)]) & np.tile(Ms > 0, 4))
     return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
-            "fixed": (fixed_s, fixed_l), "free": free, "R": R[np.ix_(free, free)],
-            "implicit": scheme["drag"] == "implicit"}
+            "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
+            "P": _tie(free, tied), "implicit": scheme["drag"] == "implicit"}
+
+
+def _tie(free, tied):
+    """The nodal velocity's selection over the free DOFs: v = P y + dt a, with P the
+    identity but for a tied liquid DOF, whose velocity is the solid's (its row of P picks
+    the solid DOF's column)."""
+    m = len(free)
+    P = np.eye(m)
+    half = len(tied) * 2                          # solid DOFs come first, then liquid
+    where = {int(d): i for i, d in enumerate(free)}
+    for i, d in enumerate(free):
+        if d >= half and tied[d - half]:
+            P[i, i] = 0.0
+            P[i, where[int(d - half)]] = 1.0
+    return P
 
 
 def _inv(a):
@@ -230,9 +249,10 @@ def _accelerations(parts, dt):
     Explicit drag: a_l = (f_l - Q (y_l - y_s)) / M~_l, a_s = (f_m - M_l a_l) / M_s.
     Implicit drag (``kernels.nodal_update``): per DOF, with r = f_l - Q (y_l - y_s),
         M_s a_s + M_l a_l = f_m,    (M~_l + Q dt) a_l - Q dt a_s = r,
-    solved in closed form, det = M_s M~_l + Q dt (M_s + M_l); a phase held fixed leaves the
-    other alone (solid fixed: a_l = r / (M~_l + Q dt); liquid fixed: a_s = f_m / M_s). The
-    held phase's velocity is zero: its columns of L_y drop out with the fixed DOFs."""
+    solved in closed form, det = M_s M~_l + Q dt (M_s + M_l); a solid held fixed leaves the
+    liquid alone (a_l = r / (M~_l + Q dt)), its velocity zero: its columns of L_y drop out
+    with the fixed DOFs. Either drag: a liquid DOF tied to the solid (impermeable side)
+    moves with it, a_s = a_l = f_m / (M_s + M_l), no drag."""
     fm, fl = parts["fm"], parts["fl"]
     Ms2, Ml2, Mt2, Q2 = parts["mass"]
     if not parts["implicit"]:
@@ -241,29 +261,33 @@ def _accelerations(parts, dt):
         LU = np.vstack([_inv(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
         Ly = np.vstack([-_inv(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
     else:
-        fixed_s, fixed_l = parts["fixed"]
+        fixed_s = parts["fixed_s"]
         Qdt = Q2 * dt
         inv_det = _inv(Ms2 * Mt2 + Qdt * (Ms2 + Ml2))
         # a_s = A_ss f_m + A_sl r, a_l = A_ls f_m + A_ll r
-        A_ss = np.where(fixed_l, _inv(Ms2), (Mt2 + Qdt) * inv_det)
-        A_sl = np.where(fixed_l, 0.0, -Ml2 * inv_det)
+        A_ss, A_sl = (Mt2 + Qdt) * inv_det, -Ml2 * inv_det
         A_ls = np.where(fixed_s, 0.0, Qdt * inv_det)
         A_ll = np.where(fixed_s, _inv(Mt2 + Qdt), Ms2 * inv_det)
         Ly_r = np.hstack([np.diag(Q2), -np.diag(Q2)])          # r's part on (y_s, y_l)
         LU = np.vstack([A_ss[:, None] * fm + A_sl[:, None] * fl,
                         A_ls[:, None] * fm + A_ll[:, None] * fl])
         Ly = np.vstack([A_sl[:, None] * Ly_r, A_ll[:, None] * Ly_r])
+    tied = np.flatnonzero(parts["tied"])
+    if len(tied):
+        mix = _inv(Ms2 + Ml2)[tied, None] * fm[tied]
+        for rows in (tied, tied + len(Ms2)):
+            LU[rows], Ly[rows] = mix, 0.0
     sub = np.ix_(parts["free"], parts["free"])
     return LU[sub], Ly[sub]
 
 
 def _spectral_radius(parts, flip, dt):
     LU, Ly = _accelerations(parts, dt)
-    R = parts["R"]
+    R, P = parts["R"], parts["P"]
     m = LU.shape[0]
     I = np.eye(m)
-    S = flip * I + (1 - flip) * R
-    T = np.block([[I + dt * dt * LU, dt * I + dt * dt * Ly],
+    S = flip * I + (1 - flip) * R @ P
+    T = np.block([[I + dt * dt * LU, dt * P + dt * dt * Ly],
                   [dt * R @ LU, S + dt * R @ Ly]])
     return float(np.max(np.abs(np.linalg.eigvals(T))))
 

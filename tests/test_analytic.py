@@ -148,9 +148,12 @@ def test_a_given_number_of_terms_sums_exactly_those():
 
 
 def test_erfc_to_round_off():
+    """The erfc the image forms use (SciPy's, scalar C code whatever NumPy's SIMD paths) is
+    within a few units of round-off of the standard library's: the absolute accuracy that
+    TOLERANCE's margin assumes. Measured: 2.8e-16 at most on [0, 30]."""
     x = np.concatenate([np.linspace(0, 8, 4001), [6.5 - 1e-12, 6.5, 30.0]])
     ref = np.array([math.erfc(v) for v in x])
-    assert np.max(np.abs(analytic._erfc(x) - ref)) < 1e-14
+    assert np.max(np.abs(analytic._erfc(x) - ref)) <= 4 * np.finfo(float).eps
 
 
 @pytest.mark.parametrize("Tv", [1e-5, 0.02, 1.0, "per point"])

@@ -243,9 +243,17 @@ def check_provenance(s, given: dict):
 
     assert prov["version"] == __version__
     assert prov["ranks"] == s["ranks"]
-    for lib in ("petsc", "slepc", "petsc4py", "slepc4py", "mpi4py", "numpy", "numba",
-                "meshio", "h5py", "mpi"):
+    for lib in ("petsc", "slepc", "petsc4py", "slepc4py", "mpi4py", "numpy", "scipy",
+                "numba", "meshio", "h5py", "mpi"):
         assert isinstance(prov["libraries"][lib], str) and prov["libraries"][lib], lib
+    # The arithmetic: this machine's CPU and the SIMD features NumPy uses on it (SSE2 is in
+    # every x86-64 baseline).
+    import platform
+
+    cpu = prov["cpu"]
+    assert cpu["machine"] == platform.machine() and cpu["model"]
+    if platform.machine() in ("x86_64", "AMD64"):
+        assert "SSE2" in cpu["numpy_simd"]
     assert prov["libraries"]["petsc"].split(".")[:2] == \
         prov["libraries"]["petsc4py"].split(".")[:2]
     head = _git_head()

@@ -97,13 +97,18 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     if damping:
         fm -= damping * np.abs(fm) * np.sign(Ms[:, None] * vs_n + Ml[:, None] * vl_n)
     fs = grid.constrained_mask(bcs).reshape(-1, 2)
-    fl = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
+    # Normal to an impermeable side the liquid is tied to the solid (no relative flux): both
+    # move by the mixture's equation, and are held where the solid is.
+    tie = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
     if scheme["drag"] == "explicit":
         al = (G[:, 10:12] - Q[:, None] * (vl_n - vs_n)) * inv(Mt)[:, None]
         as_ = (fm - Ml[:, None] * al) * inv(Ms)[:, None]
     else:
-        as_, al = _implicit_drag(Ms, Ml, Mt, Q, fm, G[:, 10:12], vs_n, vl_n, fs, fl, dt)
-    as_[fs], vs_n[fs], al[fl], vl_n[fl] = 0.0, 0.0, 0.0, 0.0
+        as_, al = _implicit_drag(Ms, Ml, Mt, Q, fm, G[:, 10:12], vs_n, vl_n, fs,
+                                 np.zeros_like(tie), dt)
+    as_ = np.where(tie, fm * inv(Ms + Ml)[:, None], as_)
+    as_[fs], vs_n[fs] = 0.0, 0.0
+    al, vl_n = np.where(tie, as_, al), np.where(tie, vs_n, vl_n)
     Hn = np.hstack([as_, al, vs_n + dt * as_, vl_n + dt * al])[nodes]
     at = np.einsum("pa,paf->pf", N, Hn)
     at[:, 2:4] = np.einsum("pa,paf->pf", Nl, Hn[..., 2:4])
@@ -203,6 +208,13 @@ CASES = [
          drag="explicit", damping=0),
     dict(element="q9", cells="3,30", ppc=3, lumping="hrz", pressure_projection="nodal"),
     dict(element="q4", cells="4,40", liquid_basis="blended", lumping="hrz", flip=0),
+    # Impermeable sides that move (a settling top, a free side): the liquid tied to the
+    # solid normal to them, with either drag and basis.
+    dict(element="q4", cells="4,40", drained="bottom"),
+    dict(element="q8", cells="3,30", ppc=3, drained="bottom", drag="explicit"),
+    dict(element="q9", cells="4,4", ppc=3, size="1.2,1.2", drained="left,right"),
+    dict(element="q4", cells="8,8", size="1.2,1.2", bc_right="none", liquid_basis="blended",
+         lumping="hrz", drag="explicit"),
 ]
 
 
