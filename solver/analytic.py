@@ -23,8 +23,10 @@ def rod_mode(y, H: float, k: int):
     return np.sin((2 * k - 1) * np.pi * np.asarray(y) / (2 * H))
 
 
-# Absolute accuracy (units of p0) of the Terzaghi references. The promise is 1e-10; the
-# margin absorbs the round-off of erfc (SciPy's, about 3e-16 absolute), of NumPy's exp and
+# Absolute accuracy (units of p0) of the Terzaghi references. The promise is 1e-10; measured
+# against a 40-digit evaluation (mpmath) at 21 depths and T_v from 1e-6 to 3: at most 2e-16
+# from the images (T_v < 0.007) and 1.3e-14 from the series (at T_v = 0.1; the sine
+# recurrence's round-off). The margin absorbs the round-off of erfc (SciPy's, about 3e-16 absolute), of NumPy's exp and
 # sin (a few ulp, their SIMD kernels differ between machines with and without AVX-512) and
 # of the summation.
 TOLERANCE = 1e-13
