@@ -76,8 +76,8 @@ def _run_at(cli, out_dir, scene, extra):
 
 @pytest.mark.parametrize("name,scene", SHARP, ids=[s[0] for s in SHARP])
 def test_discrete_limit_is_sharp_on_moving_impermeable_sides(cli, tmp_path, name, scene):
-    """The stability analysis follows the tie: runs at 0.9 x its limit are stable and at
-    1.1 x blow up (before the tie the laterally drained block's limit was 50 times too
+    """The stability analysis follows the tie: runs at 0.97 x its limit are stable and at
+    1.03 x blow up by T_v = 0.05 (the column at 1.03 x: at step 1100, T_v = 0.035; before the tie the laterally drained block's limit was 50 times too
     small, set by the liquid held still against the moving top)."""
     s = check_ok(_run_at(cli, tmp_path / "limit", scene,
                          ["-mpm_Tv_end", "1e-3", "-mpm_Tv_report", "1e-3"]))
@@ -87,8 +87,8 @@ def test_discrete_limit_is_sharp_on_moving_impermeable_sides(cli, tmp_path, name
     # explicit), as it is with drained tops.
     near = min(dtc["undrained"], dtc["drag"] if "explicit" in scene else math.inf)
     assert 0.5 < limit / near < 2
-    for factor, stable in ((0.9, True), (1.1, False)):
+    for factor, stable in ((0.97, True), (1.03, False)):
         res = _run_at(cli, tmp_path / f"x{factor}", scene,
-                      ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02", "-mpm_dt",
+                      ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05", "-mpm_dt",
                        repr(factor * limit), "-mpm_stability_analysis", "0"])
         assert res.returncode == (0 if stable else 3), (factor, res.stderr)
