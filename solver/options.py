@@ -135,7 +135,8 @@ SPEC = [
            (CONSOLIDATION,), _nonnegative),
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
            (CONSOLIDATION,), _nonnegative),
-    Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable",
+    Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable "
+           "(no flow relative to the skeleton); left and right with q4 cells only",
            (CONSOLIDATION,), choices=("left", "right", "bottom", "top")),
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
            "smallest critical time step", (CONSOLIDATION,), _positive),
