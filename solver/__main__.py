@@ -111,12 +111,22 @@ def _run(argv, origins, scene_analysis, comm) -> int:
     """The analysis the options in PETSc's database ask for; the exit code (see above)."""
     from petsc4py import PETSc
 
-    from . import options
-    from .errors import InputError, InternalError, Interrupted, NumericalError, describe
+    from . import options, signals
 
     _survive_closed_stdout()
     if {"-help", "--help", "-h"} & set(argv):
         return _help(options, origins, comm)
+    with signals.watched():
+        return _analysis(argv, origins, scene_analysis, comm)
+
+
+def _analysis(argv, origins, scene_analysis, comm) -> int:
+    """:func:`_run` with SIGTERM and SIGINT watched (:mod:`solver.signals`)."""
+    from petsc4py import PETSc
+
+    from . import checkpoint, signals
+    from .errors import InputError, InternalError, Interrupted, NumericalError, describe
+
     debug = PETSc.Options().getString("mpm_debug", "false")
     debug = str(debug or "true").strip().lower() not in ("0", "false", "no", "off")
     if not debug:
@@ -124,7 +134,8 @@ def _run(argv, origins, scene_analysis, comm) -> int:
         # multi-line dump would only repeat them.
         PETSc.Sys.pushErrorHandler("ignore")
     try:
-        params = options.read(origins=origins)
+        signals.stage("set-up")
+        params = checkpoint.read_options(origins)
         params, moved = _own_folder(params, scene_analysis)
         for note in params.notes + moved:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
@@ -139,7 +150,14 @@ def _run(argv, origins, scene_analysis, comm) -> int:
             code = consolidation.run(params, comm)
             if code:
                 return code
-    except (InputError, NumericalError, Interrupted, InternalError) as exc:
+    except Interrupted as exc:
+        if debug:
+            traceback.print_exc()
+        code = _fail(str(exc), exc.exit_code, comm.getRank())
+        if comm.getSize() > 1 and not exc.agreed:
+            _abort(comm, code)
+        return code
+    except (InputError, NumericalError, InternalError) as exc:
         if debug:
             traceback.print_exc()
         message = str(exc)
@@ -280,6 +298,17 @@ def _release_stdout() -> None:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         except (OSError, ValueError):
             pass
+
+
+def _abort(comm, code: int) -> None:
+    """End a parallel run that a signal stopped where its ranks cannot agree (in a
+    collective some of them may never join): rank 0, which has written the summary and
+    the error line, aborts MPI; the others give it a moment to do so first."""
+    import time
+
+    if comm.getRank() != 0:
+        time.sleep(2.0)
+    comm.tompi4py().Abort(code)
 
 
 def _fail(message: str, code: int, rank: int = 0) -> int:

@@ -147,10 +147,18 @@ class XdmfSeries:
         self.folder = os.path.dirname(os.path.abspath(path))
         self.stem = os.path.splitext(os.path.basename(path))[0]
         self.run_id = run_id
-        # (t (s), HDF5 file name, number of points, [[field, components], ...]) per step:
-        # plain lists, so a checkpoint stores them as JSON and a restart rebuilds the index.
-        self.entries = [list(e) for e in entries]
-        self._names = {e[1] for e in self.entries}
+        self.entries = entries
+
+    @property
+    def entries(self) -> list:
+        """(t (s), HDF5 file name, number of points, [[field, components], ...]) per step:
+        plain lists, so a checkpoint stores them as JSON and a restart rebuilds the index."""
+        return self._entries
+
+    @entries.setter
+    def entries(self, entries):
+        self._entries = [list(e) for e in entries]
+        self._names = {e[1] for e in self._entries}
         self._appending = False     # True once the index on disk lists exactly the entries
 
     def write(self, step: int, t: float, xy, fields: dict):
@@ -175,13 +183,20 @@ class XdmfSeries:
                     del value
         entry = [t, name, n, layout]
         if name in self._names:         # a step written again replaces its entry
-            self.entries = [e for e in self.entries if e[1] != name]
-            self._appending = False
-        self.entries.append(entry)
+            self.entries = [e for e in self._entries if e[1] != name]
+        self._entries.append(entry)
         self._names.add(name)
         if not (self._appending and self._append(entry)):
+            self.rewrite()
+
+    def rewrite(self):
+        """Write the index whole from the entries (a series taken up again); with none,
+        remove an index left at the path (another series')."""
+        if self.entries:
             write_text(self.path, self.index())
             self._appending = True
+        elif os.path.exists(self.path):
+            os.remove(self.path)
 
     def _append(self, entry) -> bool:
         """Write ``entry``'s grid over the closing tags of the index on disk, and the tags
