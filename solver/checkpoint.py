@@ -90,6 +90,11 @@ def read_options(origins, db=None):
     if not run:
         return options.read(db=db, origins=origins)
     base = run["options"]
+    analysis = db.getString(options.PREFIX + "analysis", "")
+    if analysis and analysis != base["analysis"]:
+        # Before the options are read: they would be judged by the other analysis.
+        raise InputError(f"-mpm_analysis {analysis}: the run of -mpm_restart {path} has "
+                         f"{base['analysis']}; a restart continues that run")
     p = options.read(db=db, origins=origins, base=base)
     for name in p.given:
         if name in FREE_OPTIONS or name not in base:
@@ -157,10 +162,10 @@ def check_folder(p, run_id, comm) -> None:
     run than ``run_id`` (a restart's) lie where this one writes: the summary, the field
     series (points.xdmf) or a checkpoint other than -mpm_restart's, each marked with the id
     of the run that wrote it (none: an older or another program's result, another run),
-    unless -mpm_overwrite. ``run_id`` None (an older checkpoint): results without an id
-    may be its own."""
+    unless -mpm_overwrite. ``run_id`` None (an older checkpoint, which does not say which
+    results are its own): not checked, as before."""
     problem = None
-    if comm.getRank() == 0 and not p.overwrite:
+    if comm.getRank() == 0 and not p.overwrite and run_id is not None:
         ckpt = os.path.join(p.output, "checkpoint.npz")
         for path, read in ((p.summary or os.path.join(p.output, "summary.json"), _summary_id),
                            (os.path.join(p.output, "points.xdmf"), output.series_run_id),
@@ -172,8 +177,7 @@ def check_folder(p, run_id, comm) -> None:
             if other != run_id:
                 problem = (f"-mpm_output {p.output}: {os.path.basename(path)} holds the "
                            f"results of another run ({other or 'without a run id'}; "
-                           f"-mpm_restart {p.restart} continues "
-                           f"{'run ' + run_id if run_id else 'an older run'}): give another "
+                           f"-mpm_restart {p.restart} continues run {run_id}): give another "
                            "-mpm_output, or -mpm_overwrite to replace them")
                 break
     problem = comm.tompi4py().bcast(problem, root=0)

@@ -37,17 +37,20 @@ class PointSeries:
 
     def resume(self, entries, run_id):
         """Continue the series of a checkpoint of run ``run_id``: its times whose files
-        are in this output folder and were written by that run (None, an older checkpoint:
-        files without a run id). A restart elsewhere starts a new series, and the index of
-        another run there is replaced by this run's (or removed: no time of it there
-        yet); older checkpoints held VTU names."""
+        are in this output folder and were written by that run (None, an older checkpoint
+        that does not say: every file there). A restart elsewhere starts a new series, and
+        the index of another run there is replaced by this run's (or removed: no time of
+        it there yet); older checkpoints held VTU names."""
         if not self.writer:
             return
         folder = self.writer.folder
-        self.writer.entries = [
-            list(e) for e in entries if isinstance(e, (list, tuple)) and len(e) == 4
-            and os.path.isfile(os.path.join(folder, str(e[1])))
-            and output.series_run_id(os.path.join(folder, str(e[1]))) == run_id]
+
+        def own(entry):
+            path = os.path.join(folder, str(entry[1]))
+            return os.path.isfile(path) and (run_id is None
+                                             or output.series_run_id(path) == run_id)
+        self.writer.entries = [list(e) for e in entries
+                               if isinstance(e, (list, tuple)) and len(e) == 4 and own(e)]
         self.writer.rewrite()
 
     def write(self, points, step, t):
