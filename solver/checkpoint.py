@@ -68,10 +68,13 @@ def _run_of(path):
         raise InputError(f"-mpm_restart {path}: no such file")
     try:
         with np.load(path, allow_pickle=False) as z:
-            return json.loads(str(z["run"])) if "run" in z.files else None
+            run = json.loads(str(z["run"])) if "run" in z.files else None
+        if run is not None and not isinstance(run["options"]["analysis"], str):
+            raise TypeError("no analysis")
     except Exception as exc:  # noqa: BLE001  (any damage: truncated zip, bad JSON)
         raise InputError(f"-mpm_restart {path}: not a readable checkpoint "
                          f"({type(exc).__name__})") from None
+    return run
 
 
 def read_options(origins, db=None):
