@@ -7,7 +7,10 @@ Exit codes:
   computed, nothing written);
 - 3 numerical failure (Jacobi or SLEPc not converged, a mass that is not positive definite,
   a blown-up run): the summary says what was computed and where it failed;
-- 4 stopped by SIGTERM/SIGINT after writing a checkpoint and the summary;
+- 4 stopped by SIGTERM/SIGINT at any point: one line naming the stage, the summary
+  (``"completed": false``, the ``error`` with its ``stage``) once the output folder is
+  known, and a checkpoint once the steps have begun. A parallel run stopped where its
+  ranks cannot agree (before the steps) aborts MPI after rank 0's summary;
 - 5 internal error: an exception the solver did not foresee (a bug, or the machine out of
   memory or disk). The summary is still written (``"completed": false``, the ``error``),
   with a checkpoint when the points held a whole step. In a parallel run a failure that
@@ -75,8 +78,23 @@ def main(argv=None, comm=None) -> int:
     several scenes), the options of ``argv`` hold for this call only and ``comm`` (default
     ``PETSc.COMM_WORLD``) runs the analysis; ``-options_left`` and ``-log_view`` then belong
     to the host process, which prints them when it finalises PETSc.
+
+    SIGTERM and SIGINT stop it at any point with one line and exit code 4
+    (:mod:`solver.signals`), from the start, before PETSc runs, on.
     """
-    argv = list(sys.argv if argv is None else argv)
+    from . import signals
+    from .errors import Interrupted
+
+    with signals.watched():
+        signals.stage("start-up")
+        try:
+            return _main(list(sys.argv if argv is None else argv), comm)
+        except Interrupted as exc:     # before the analysis began (it reports its own)
+            return _fail(str(exc), exc.exit_code, _rank())
+
+
+def _main(argv, comm) -> int:
+    """:func:`main` with the signals watched."""
     origins, code = _scan_options_files(argv)
     if code is not None:
         return code
@@ -111,7 +129,7 @@ def _run(argv, origins, scene_analysis, comm) -> int:
     """The analysis the options in PETSc's database ask for; the exit code (see above)."""
     from petsc4py import PETSc
 
-    from . import options
+    from . import checkpoint, options, signals
     from .errors import InputError, InternalError, Interrupted, NumericalError, describe
 
     _survive_closed_stdout()
@@ -124,7 +142,8 @@ def _run(argv, origins, scene_analysis, comm) -> int:
         # multi-line dump would only repeat them.
         PETSc.Sys.pushErrorHandler("ignore")
     try:
-        params = options.read(origins=origins)
+        signals.stage("set-up")
+        params = checkpoint.read_options(origins)
         params, moved = _own_folder(params, scene_analysis)
         for note in params.notes + moved:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
@@ -139,7 +158,14 @@ def _run(argv, origins, scene_analysis, comm) -> int:
             code = consolidation.run(params, comm)
             if code:
                 return code
-    except (InputError, NumericalError, Interrupted, InternalError) as exc:
+    except Interrupted as exc:
+        if debug:
+            traceback.print_exc()
+        code = _fail(str(exc), exc.exit_code, comm.getRank())
+        if comm.getSize() > 1 and not exc.agreed:
+            _abort(comm, code)
+        return code
+    except (InputError, NumericalError, InternalError) as exc:
         if debug:
             traceback.print_exc()
         message = str(exc)
@@ -169,15 +195,17 @@ def _run(argv, origins, scene_analysis, comm) -> int:
 
 def _help(options, origins, comm) -> int:
     """Print the option table with the values in effect (defaults, then the scene files,
-    then the command line) and run nothing. Values that :func:`options.read` refuses are
-    shown as given, with the reason below the table."""
+    then the command line; with -mpm_restart, the checkpoint's in place of the defaults)
+    and run nothing. Values that :func:`options.read` refuses are shown as given, with the
+    reason below the table."""
     from petsc4py import PETSc
 
+    from . import checkpoint
     from .errors import InputError
 
     problem = ""
     try:
-        values = options.read(origins=origins)
+        values = checkpoint.read_options(origins)
     except InputError as exc:
         values, problem = options.given_text(), f"\nNote: {exc}; this command would stop there"
     PETSc.Sys.Print("Options of the MPM solver (SI units), with the values this command "
@@ -280,6 +308,17 @@ def _release_stdout() -> None:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         except (OSError, ValueError):
             pass
+
+
+def _abort(comm, code: int) -> None:
+    """End a parallel run that a signal stopped where its ranks cannot agree (in a
+    collective some of them may never join): rank 0, which has written the summary and
+    the error line, aborts MPI; the others give it a moment to do so first."""
+    import time
+
+    if comm.getRank() != 0:
+        time.sleep(2.0)
+    comm.tompi4py().Abort(code)
 
 
 def _fail(message: str, code: int, rank: int = 0) -> int:

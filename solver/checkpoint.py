@@ -1,15 +1,26 @@
 """Checkpoints of explicit runs: the whole state in one NumPy ``.npz`` file, written whole.
 
 A checkpoint holds every material-point field (gathered from all ranks), the step, dt, the
-monitor history and the reports so far, and the options that define the physics. A restart
-on any number of ranks hands each rank the points of the cells it owns, so a run restarted
-from a checkpoint continues with the same state it would have had without interruption.
+monitor history and the reports so far, the options that define the physics (their
+signature), and the run: its id and every ``-mpm_`` option in effect as the run read them.
+A restart on any number of ranks hands each rank the points of the cells it owns, so a run
+restarted from a checkpoint continues with the same state it would have had without
+interruption.
+
+``-mpm_restart CK`` alone continues the run of CK: its options stand in for the defaults
+(:func:`read_options`), and options given beside it may change only :data:`FREE_OPTIONS`.
+A restart writes into a folder only when what the folder holds is the same run's
+(:func:`check_folder`: the run id of its summary, field series and checkpoint), unless
+``-mpm_overwrite`` says to replace another run's results. Checkpoints written before the
+run was stored (no ``run`` member) are read as before: every option given again.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import secrets
+import time
 
 import numpy as np
 
@@ -20,7 +31,7 @@ from .errors import InputError
 FREE_OPTIONS = {"output", "summary", "figures", "figure_format", "debug", "progress", "restart",
                 "checkpoint_every", "checkpoint_seconds", "output_every", "Tv_end", "Tv_report",
                 "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
-                "stability_analysis"}
+                "stability_analysis", "overwrite"}
 VERSION = 2    # 2: reference positions x0 (2 components) in place of y0
 
 
@@ -31,8 +42,78 @@ def signature(p) -> str:
     return json.dumps(items, sort_keys=True, default=str)
 
 
-def write(path, comm, points, state: dict, p):
-    """Gather the points on rank 0 and write ``path`` (collective)."""
+def new_run_id(comm) -> str:
+    """A fresh run id, the same on every rank: the start time and 8 random hex digits
+    (``20250101T120000-1a2b3c4d``)."""
+    rid = None
+    if comm.getRank() == 0:
+        rid = f"{time.strftime('%Y%m%dT%H%M%S')}-{secrets.token_hex(4)}"
+    return comm.tompi4py().bcast(rid, root=0)
+
+
+def recorded(p) -> dict:
+    """The options of the run ``p`` (as read, before a run's own adjustments) that a
+    checkpoint stores: every ``-mpm_`` option the analysis uses but -mpm_restart, as JSON
+    values (lists for tuples, null for NaN)."""
+    from .options import SPEC
+
+    used = {o.name for o in SPEC if p.analysis in o.used_by} - {"restart"}
+    return output._jsonable({k: getattr(p, k) for k in sorted(used)})
+
+
+def _run_of(path):
+    """The ``run`` member of checkpoint ``path`` ({"id", "options"}), None in an older
+    checkpoint; InputError when the file is missing or unreadable."""
+    if not os.path.isfile(path):
+        raise InputError(f"-mpm_restart {path}: no such file")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            run = json.loads(str(z["run"])) if "run" in z.files else None
+        if run is not None and not isinstance(run["options"]["analysis"], str):
+            raise TypeError("no analysis")
+    except Exception as exc:  # noqa: BLE001  (any damage: truncated zip, bad JSON)
+        raise InputError(f"-mpm_restart {path}: not a readable checkpoint "
+                         f"({type(exc).__name__})") from None
+    return run
+
+
+def read_options(origins, db=None):
+    """The options of this command (:func:`options.read`); with -mpm_restart, the
+    checkpoint's options in place of the defaults, and InputError for an option given
+    beside it (on the command line or in a scene file) that would change the run's physics
+    or grid: only :data:`FREE_OPTIONS` may differ from the checkpoint's."""
+    from petsc4py import PETSc
+
+    from . import options
+
+    db = PETSc.Options() if db is None else db
+    path = db.getString(options.PREFIX + "restart", "") if db.hasName(
+        options.PREFIX + "restart") else ""
+    run = _run_of(path) if path else None
+    if not run:
+        return options.read(db=db, origins=origins)
+    base = run["options"]
+    analysis = db.getString(options.PREFIX + "analysis", "")
+    if analysis and analysis != base["analysis"]:
+        # Before the options are read: they would be judged by the other analysis.
+        raise InputError(f"-mpm_analysis {analysis}: the run of -mpm_restart {path} has "
+                         f"{base['analysis']}; a restart continues that run")
+    p = options.read(db=db, origins=origins, base=base)
+    for name in p.given:
+        if name in FREE_OPTIONS or name not in base:
+            continue
+        mine = output._jsonable(getattr(p, name))
+        if json.dumps(mine) != json.dumps(base[name]):
+            raise InputError(
+                f"-mpm_{name} {options.text(name, getattr(p, name))}: the run of -mpm_restart "
+                f"{path} has {options.text(name, base[name])}; a restart continues that "
+                "run (give another -mpm_output and no -mpm_restart for a new one)")
+    return p
+
+
+def write(path, comm, points, state: dict, p, run: dict):
+    """Gather the points on rank 0 and write ``path`` (collective); ``run``: {"id": the
+    run id, "options": :func:`recorded`}."""
     names = list(points.layout)
     local = np.column_stack([points.get(n).reshape(points.n_local, -1) for n in names]) \
         if points.n_local else np.zeros((0, sum(points.layout.values())))
@@ -44,11 +125,13 @@ def write(path, comm, points, state: dict, p):
         with open(tmp, "wb") as fh:
             np.savez(fh, version=VERSION, fields=data,
                      layout=json.dumps(points.layout), signature=signature(p),
-                     state=json.dumps(output._jsonable(state)))
+                     state=json.dumps(output._jsonable(state)),
+                     run=json.dumps(output._jsonable(run)))
 
 
 def read(path, p):
-    """Load a checkpoint; raise InputError if it is missing, damaged or of another scene."""
+    """Load a checkpoint: (fields, layout, state, run id or None for an older checkpoint);
+    raise InputError if it is missing, damaged or of another scene."""
     if not os.path.isfile(path):
         raise InputError(f"-mpm_restart {path}: no such file")
     try:
@@ -58,6 +141,7 @@ def read(path, p):
             layout = json.loads(str(z["layout"]))
             sig = str(z["signature"])
             state = json.loads(str(z["state"]))
+            run = json.loads(str(z["run"])) if "run" in z.files else {}
     except Exception as exc:  # any damage: truncated zip, missing member, bad JSON
         raise InputError(f"-mpm_restart {path}: not a readable checkpoint "
                          f"({type(exc).__name__})") from None
@@ -73,7 +157,51 @@ def read(path, p):
                          f"(-mpm_{diff[0]} differs)")
     if fields.ndim != 2 or fields.shape[1] != sum(layout.values()):
         raise InputError(f"-mpm_restart {path}: inconsistent point data")
-    return fields, layout, state
+    return fields, layout, state, run.get("id")
+
+
+def check_folder(p, run_id, comm) -> None:
+    """InputError on every rank, before anything is computed, when the results of another
+    run than ``run_id`` (a restart's) lie where this one writes: the summary, the field
+    series (points.xdmf) or a checkpoint other than -mpm_restart's, each marked with the id
+    of the run that wrote it (none: an older or another program's result, another run),
+    unless -mpm_overwrite. ``run_id`` None (an older checkpoint, which does not say which
+    results are its own): not checked, as before."""
+    problem = None
+    if comm.getRank() == 0 and not p.overwrite and run_id is not None:
+        ckpt = os.path.join(p.output, "checkpoint.npz")
+        for path, read in ((p.summary or os.path.join(p.output, "summary.json"), _summary_id),
+                           (os.path.join(p.output, "points.xdmf"), output.series_run_id),
+                           (ckpt, _checkpoint_id)):
+            if not os.path.isfile(path) or (path == ckpt and os.path.isfile(p.restart)
+                                            and os.path.samefile(path, p.restart)):
+                continue
+            other = read(path)
+            if other != run_id:
+                problem = (f"-mpm_output {p.output}: {os.path.basename(path)} holds the "
+                           f"results of another run ({other or 'without a run id'}; "
+                           f"-mpm_restart {p.restart} continues run {run_id}): give another "
+                           "-mpm_output, or -mpm_overwrite to replace them")
+                break
+    problem = comm.tompi4py().bcast(problem, root=0)
+    if problem:
+        raise InputError(problem)
+
+
+def _summary_id(path):
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return json.load(fh).get("run_id")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _checkpoint_id(path):
+    try:
+        run = _run_of(path)
+    except InputError:
+        return None
+    return run.get("id") if run else None
 
 
 def scatter(points, grid, fields, layout, position="x"):

@@ -14,16 +14,15 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import signal
 import time
 
 import numpy as np
 from petsc4py import PETSc
 
-from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
-               output, provenance, scene, shapes, timestep, workprecision)
-from .errors import (InputError, InternalError, Interrupted, NumericalError, agree, describe,
-                     entry)
+from . import (analytic, assembly, checkpoint, eigen, failure, fields, figures, inertia,
+               jacobi, memory, output, provenance, scene, shapes, signals, timestep,
+               workprecision)
+from .errors import InputError, Interrupted, NumericalError, agree_code, entry
 from .twophase import TwoPhase
 
 MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
@@ -141,7 +140,7 @@ def run(p, comm) -> int:
     leaves the others in a collective, and reaches the caller as it is (to abort MPI).
     The PETSc objects the run made are destroyed on the way out, after the failure
     handling (its checkpoint needs the points)."""
-    ctx = _Failure(comm)
+    ctx = failure.RunFailure(comm)
     try:
         return _handled(p, comm, ctx)
     finally:
@@ -149,84 +148,43 @@ def run(p, comm) -> int:
 
 
 def _handled(p, comm, ctx) -> int:
-    """:func:`run`'s failure handling around :func:`_run`."""
+    """:func:`run`'s failure handling around :func:`_run`. A signal during the set-up (no
+    step yet) writes the summary on rank 0 alone and stops there: ranks may be anywhere
+    in its collectives; during the reporting after the last step the ranks agree on it
+    as on any failure there, and a checkpoint keeps the whole run."""
     failure = None
     try:
         code = _run(p, comm, ctx)
-    except (InputError, NumericalError, Interrupted, PETSc.Error):
+    except (InputError, NumericalError, PETSc.Error):
         raise                  # every rank raises these alike, where they arise
+    except Interrupted as exc:
+        if exc.agreed:         # the time loop's, after its checkpoint and summary
+            raise
+        if ctx.phase != "reporting":
+            raise ctx.record(comm, str(exc), code=4, stage=exc.stage, agreed=False) from None
+        failure = exc
     except Exception as exc:   # noqa: BLE001  (what the solver did not foresee)
         failure = exc
     if ctx.phase == "reporting" or comm.getSize() == 1:
-        message = agree(comm, failure)       # every rank gets here, failed or not
+        message, kind = agree_code(comm, failure)   # every rank gets here, failed or not
         if message is None:
             return code
-        raise ctx.record(comm, message) from failure
+        raise ctx.record(comm, message, code=kind) from failure
     ctx.record(comm, None, failure)
     raise failure
-
-
-class _Failure:
-    """What the failure handler of :func:`run` needs, set as the run gets there."""
-
-    def __init__(self, comm):
-        self.phase = "set-up"        # then "stepping", "reporting"
-        self.summary = None          # the summary so far, and where it goes
-        self.summary_path = ""
-        self.save = None             # save(step) writes a checkpoint (collective)
-        self.ckpt_path = ""
-        self.start = None            # the step the run started from (0, or a restart's)
-        self.whole = None            # the last step whose points and records all agree
-        self.t_wall = time.perf_counter()
-        self.cleanup = []            # calls that undo the run's settings (signals, FP)
-        self.owned = []              # PETSc objects (and their owners), destroyed by run()
-
-    def record(self, comm, message, exc=None):
-        """Write what a failed run can (a checkpoint when the state is whole and every rank
-        takes part, the summary on rank 0); return the InternalError of ``message``."""
-        for undo in self.cleanup:
-            undo()
-        said = []
-        ckpt = None
-        if message is not None and self.whole is not None and self.whole > self.start:
-            try:
-                self.save(self.whole)
-                ckpt = self.ckpt_path
-                said.append(f"checkpoint {ckpt} at step {self.whole} (continue with "
-                            f"-mpm_restart {ckpt})")
-            except Exception as err:   # noqa: BLE001  (the disk may be what failed)
-                said.append(f"no checkpoint ({describe(err)})")
-        if comm.getRank() == 0 and self.summary_path:
-            summary = dict(self.summary or {"analysis": "consolidation"})
-            error = entry(f"internal error: {message or describe(exc)}", 5)
-            files = {"summary": self.summary_path}
-            if ckpt:
-                files["checkpoint"] = ckpt
-            summary.update(completed=False, error=error, files=files,
-                           wall_seconds=time.perf_counter() - self.t_wall)
-            if self.whole is not None:
-                summary["steps"] = self.whole
-            try:
-                output.write_json(self.summary_path, summary)
-                said.append(f"summary {self.summary_path}")
-            except Exception as err:   # noqa: BLE001
-                said.append(f"no summary ({describe(err)})")
-        if message is None:
-            return None
-        return InternalError(f"internal error: {message}"
-                             + (f"; {', '.join(said)}" if said else ""))
 
 
 def _run(p, comm, ctx) -> int:
     """The run itself (see :func:`run`): :func:`_set_up`, :func:`_time_loop` and
     :func:`_finish`; ``ctx`` follows it for the failure handler."""
     ctx.summary_path = p.summary or os.path.join(p.output, "summary.json")
+    recorded = checkpoint.recorded(p)      # the options as read: what a restart takes up
     s = _set_up(p, comm, ctx)
+    s.run["options"] = recorded
     p = s.p
     model = TwoPhase(s.grid, s.points, p, scene.boundary_conditions(p), s.scheme)
     ctx.owned.append(model)
     reporting = _Reporting(s, comm)
-    stop = _Signals()
     # A blow-up overflows before the periodic check names it in one line; NumPy's warnings
     # would only precede that line on stderr.
     fp = np.seterr(over="ignore", invalid="ignore")
@@ -236,13 +194,16 @@ def _run(p, comm, ctx) -> int:
     # After a failure a checkpoint holds the last step whose points, reports and fields are
     # all written: in practice a failure in the reporting after the last step.
     ctx.save = lambda step: checkpoint.write(
-        ckpt_path, comm, s.points, dataclasses.replace(state, step=step).to_dict(), p)
+        ckpt_path, comm, s.points, dataclasses.replace(state, step=step).to_dict(), p, s.run)
     ctx.ckpt_path, ctx.start, ctx.whole = ckpt_path, state.step, state.step
-    ctx.cleanup = [stop.restore, lambda: np.seterr(**fp)]
-    ctx.phase = "stepping"
-    _time_loop(s, model, reporting, stop, ckpt_path, comm, ctx)
-    stop.restore()
+    ctx.cleanup = [lambda: np.seterr(**fp)]
+    # While stepping a signal only marks itself: the loop stops after the step, where the
+    # ranks agree and the points hold a whole state for the checkpoint.
+    with signals.deferred("stepping") as stop:
+        ctx.phase = "stepping"
+        _time_loop(s, model, reporting, stop, ckpt_path, comm, ctx)
     np.seterr(**fp)
+    signals.stage("reporting")
     ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
     return _finish(s, reporting, summary, comm)
 
@@ -291,7 +252,9 @@ class Setup:
     grid: object
     points: object
     state: RunState            # at the first step: a fresh run's, or a restart's
+    run: dict                  # {"id": the run's id, "options": checkpoint.recorded}
     restarted: bool = False
+    resumed_id: str | None = None   # the run id a restart's checkpoint holds (None: older)
     monitor_height: float = math.nan
     f1: float = math.nan
     limits: dict = dataclasses.field(default_factory=dict)    # critical time steps (s)
@@ -313,30 +276,41 @@ class Setup:
 
 def _set_up(p, comm, ctx) -> Setup:
     """Everything before the first step, printed as it goes: the options' checks, a target
-    error's pick, the body (owned by ``ctx``), a restart's points and state, the monitor
-    point, the critical time steps and the step counts."""
+    error's pick, a restart's checkpoint and output folder, the body (owned by ``ctx``),
+    the monitor point, the critical time steps and the step counts. The stage it is in
+    goes to :mod:`solver.signals` (what an interruption names)."""
+    signals.stage("set-up: the options' checks")
     p, notes = _validate(p)
     for note in notes:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
     p, goal = _target(p, comm)
+    restart = checkpoint.read(p.restart, p) if p.restart else None
+    run_id = restart[3] if restart and restart[3] else checkpoint.new_run_id(comm)
+    ctx.begin(p, run_id)
+    if restart is not None:
+        # Before anything is computed: a restart never writes over another run's results.
+        checkpoint.check_folder(p, restart[3], comm)
+    signals.stage("set-up: the time scheme and mass scaling")
     scheme = assembly.step_scheme(p)
     memory.check(p, comm)          # a model that does not fit says so first
     _check_feasible(p, scheme)
     t_wall = time.perf_counter()
+    signals.stage("set-up: the body")
     grid, points = scene.two_phase_body(comm, p)
     ctx.owned += [grid, points]
-    restart = checkpoint.read(p.restart, p) if p.restart else None
     if restart is not None:
         state = RunState.from_dict(restart[2], scheme["mass_scaling"])
         scheme["mass_scaling"] = state.mass_scaling
     else:
         state = RunState(mass_scaling=scheme["mass_scaling"])
-    s = Setup(p, scheme, goal, t_wall, grid, points, state, restarted=restart is not None)
+    s = Setup(p, scheme, goal, t_wall, grid, points, state, {"id": run_id, "options": {}},
+              restarted=restart is not None, resumed_id=restart and restart[3])
     s.monitor_height = _monitor_height(points, p, comm.tompi4py())
     if restart is not None:
         checkpoint.scatter(points, grid, restart[0], restart[1],
                            "x0" if scheme["kinematics"] == "small" else "x")
     _time_step(s, comm)
+    signals.stage("set-up: the step counts")
     _plan(s, comm)
     return s
 
@@ -379,6 +353,7 @@ def _critical_steps(s, comm) -> tuple:
     stage "Critical time steps"."""
     p, S = s.p, s.state.mass_scaling
     with PETSc.Log.Stage("Critical time steps"):
+        signals.stage("set-up: the fundamental frequency f1")
         try:
             f1 = fundamental_frequency(comm, p)
         except NumericalError as exc:
@@ -391,6 +366,7 @@ def _critical_steps(s, comm) -> tuple:
         if p.stability_analysis:
             # A dense eigenvalue analysis: on large grids the longest part of the set-up.
             cells = timestep.analysis_cells(p)
+            signals.stage("set-up: the stability analysis")
             PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} "
                             "cells ...", comm=comm)
             t_analysis = time.perf_counter()
@@ -481,7 +457,7 @@ def _summary(s, comm) -> dict:
                "bulk_viscosity": p.bulk_viscosity, "fast_damping": p.fast_damping,
                "flip": p.flip, "f1_hz": s.f1, "c_v": s.cv, "c2": s.c2,
                "p0_consistent_over_q": s.p0, "regime": s.regime,
-               "scene": workprecision.scene_signature(p),
+               "scene": workprecision.scene_signature(p), "run_id": s.run["id"],
                "provenance": provenance.collect(comm, p)}
     if s.warn:
         summary["warnings"] = [s.warn]
@@ -519,28 +495,30 @@ def _time_loop(s, model, reporting, stop, ckpt_path, comm, ctx):
                     reporting.sample(t)
                 if k in s.iso_steps:
                     reporting.isochrone(k, t)
-                if (p.output_every and k % p.output_every == 0) or k in s.report_steps:
+                if (p.output_every and k % p.output_every == 0) or k in s.report_steps \
+                        or k == s.nsteps:     # the run's last state too, whatever its end
                     reporting.write_fields(k, t)
                 state.step = k           # the records are those of step k from here on
                 if (signal_seen or due
                         or (p.checkpoint_every and k % p.checkpoint_every == 0)):
-                    checkpoint.write(ckpt_path, comm, s.points, state.to_dict(), p)
+                    checkpoint.write(ckpt_path, comm, s.points, state.to_dict(), p, s.run)
                     last_ckpt = time.perf_counter()
                 if signal_seen:
                     raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} s); "
                                       f"checkpoint {ckpt_path}; continue with "
-                                      f"-mpm_restart {ckpt_path}")
+                                      f"-mpm_restart {ckpt_path}", stage="stepping",
+                                      agreed=True)
                 if p.progress and time.perf_counter() - last_print > p.progress:
                     last_print = time.perf_counter()
                     PETSc.Sys.Print(_progress(s, k, t, last_print, t_steps, first), comm=comm)
                 ctx.whole = k
     except (NumericalError, Interrupted) as exc:
-        for undo in ctx.cleanup:       # the signals' handlers and NumPy's FP settings
+        for undo in ctx.cleanup:       # NumPy's FP settings
             undo()
         blew_up = isinstance(exc, NumericalError)
         ctx.summary.update(stable=not blew_up, interrupted=not blew_up, steps=k,
                            failure=str(exc), wall_seconds=time.perf_counter() - s.t_wall,
-                           completed=False, error=entry(str(exc), exc.exit_code))
+                           completed=False, error=entry(str(exc), exc.exit_code, "stepping"))
         if comm.getRank() == 0:
             output.write_json(ctx.summary_path,
                               dict(ctx.summary, files={"summary": ctx.summary_path}))
@@ -568,12 +546,13 @@ class _Reporting:
         self.state, self.points, p = s.state, s.points, s.p
         self.H, self.q, self.ratio = p.size[1], load_scale(p), s.c2 / s.cv
         self.files = {}
-        self.series = _Series(p.output, comm)
+        self.series = fields.PointSeries(p.output, comm, s.run["id"])
         self.surface = _Surface(s.grid, p)
         self.depths = Depths(self.H)
         self.depths.refresh(s.points)
         if s.restarted:
-            self.series.resume(self.state.series)
+            # The series files of the checkpoint's run (an older one's have no id).
+            self.series.resume(self.state.series, s.resumed_id)
             self.state.series = self.series.entries
             step = self.state.step
             PETSc.Sys.Print(f"Restart from {p.restart} at step {step} "
@@ -637,6 +616,13 @@ def _finish(s, reporting, summary, comm) -> int:
             said = f"this run reached {goal['achieved_pct']:.2f} % " \
                    f"({'met' if met else 'NOT met'})"
         PETSc.Sys.Print(f"Target error {p.target_error:g} %: {said}", comm=comm)
+    last = reporting.series.last()          # rank 0's: it writes the series
+    if last is not None:
+        summary["fields"] = {"times": len(reporting.series.entries), "last_step": last[0],
+                             "last_t_s": last[1]}
+        PETSc.Sys.Print(f"Point fields: {summary['fields']['times']} time(s) in "
+                        f"{reporting.series.xdmf}, the last at t = {last[1]:.6g} s "
+                        f"(step {last[0]} of {s.nsteps})", comm=comm)
     files = reporting.files
     files["summary"] = summary_path
     if comm.getRank() == 0:
@@ -807,91 +793,6 @@ def _print_reports(comm, reports, p):
                      f"{r['error_consistent_pct']:8.2f}%{r['l2_terzaghi']:10.4f}"
                      f"{r['l2_consistent']:10.4f}")
     PETSc.Sys.Print("\n".join(lines), comm=comm)
-
-
-class _Signals:
-    """Catches SIGTERM and SIGINT (what batch schedulers send before a kill) during the run."""
-
-    def __init__(self):
-        self.seen, self.name = 0, ""
-        self.old = {}
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            try:
-                self.old[sig] = signal.signal(sig, self._catch)
-            except ValueError:      # not the main thread: leave signals alone
-                pass
-
-    def _catch(self, signum, frame):
-        self.seen, self.name = 1, signal.Signals(signum).name
-
-    def restore(self):
-        for sig, handler in self.old.items():
-            signal.signal(sig, handler)
-
-
-class _Series:
-    """Point fields as an XDMF + HDF5 time series (:class:`output.XdmfSeries`, written by
-    rank 0): positions, displacement x - x0, both velocities (m, m/s; 3-vectors, z = 0),
-    pore pressure and the effective stress components (Pa, tension positive). Points are
-    in the order of their global numbers, so a point keeps its index from step to step
-    whatever rank holds it (ParaView's selections and plots over time follow it)."""
-
-    def __init__(self, folder, comm):
-        self.comm = comm
-        self.xdmf = os.path.join(folder, "points.xdmf")
-        self.writer = output.XdmfSeries(self.xdmf) if comm.getRank() == 0 else None
-
-    @property
-    def entries(self) -> list:
-        return self.writer.entries if self.writer else []
-
-    def resume(self, entries):
-        """Continue the series of a checkpoint: its steps whose files are in this output
-        folder (a restart elsewhere starts a new series; older checkpoints held VTU names)."""
-        if self.writer:
-            self.writer.entries = [list(e) for e in entries if isinstance(e, (list, tuple))
-                                   and len(e) == 4 and os.path.isfile(
-                                       os.path.join(self.writer.folder, str(e[1])))]
-
-    def write(self, points, step, t):
-        """Write the points' fields at step ``step``, time ``t`` (s) (collective). One field
-        at a time is gathered and reordered: at 1e6 points a write needs about 50 bytes per
-        point beyond the points' own storage, not 500 as the whole table at once did."""
-        mpi = self.comm.tompi4py()
-
-        def gathered(name, transform=None):
-            local = points.views(name)
-            local = transform(local) if transform else local
-            parts = mpi.gather(local, root=0)
-            if parts is None:
-                return None
-            whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
-            return whole[order]
-
-        ids = mpi.gather(points.views("id"), root=0)
-        order = np.argsort(np.concatenate(ids), kind="stable") if ids is not None else None
-        xy = gathered("x")
-
-        def with_z(a):
-            return None if a is None else np.column_stack([a, np.zeros(len(a))])
-
-        def displacement():
-            x0 = gathered("x0")
-            return None if x0 is None else xy - x0
-
-        fields = {
-            "displacement": lambda: with_z(displacement()),
-            "velocity_solid": lambda: with_z(gathered("vs")),
-            "velocity_liquid": lambda: with_z(gathered("vl")),
-            "pore_pressure": lambda: gathered("p"),
-            "effective_stress_xx": lambda: gathered("stress", lambda s: s[:, 0].copy()),
-            "effective_stress_yy": lambda: gathered("stress", lambda s: s[:, 1].copy()),
-            "effective_stress_xy": lambda: gathered("stress", lambda s: s[:, 2].copy())}
-        if self.writer is None:
-            for field in fields.values():     # the gathers are collective
-                field()
-            return
-        self.writer.write(step, t, xy, fields)
 
 
 class _Surface:

@@ -17,8 +17,9 @@ import numpy as np
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from . import analytic, assembly, jacobi, memory, output, provenance
-from .errors import InputError, InternalError, NumericalError, agree, describe, entry
+from . import analytic, assembly, jacobi, memory, output, provenance, signals
+from .errors import (InputError, InternalError, Interrupted, NumericalError, agree, describe,
+                     entry)
 from .scene import boundary_conditions, build, destroy, mixture_density
 
 # Table 3 of the paper (Hz): the MP models of a 1 x 10 grid over the 0.1 m x 1 m column.
@@ -186,9 +187,13 @@ def run(p, comm) -> dict:
     the caller as it is (to abort MPI: the others wait in a collective)."""
     ctx = {"phase": "analysis", "summary": None, "freq": {}}
     failure = None
+    signals.stage("the eigen analysis")
     try:
         summary = _analyse(p, comm, ctx)
     except InputError:
+        raise
+    except Interrupted as exc:         # a signal: the summary says what was computed
+        exc.args = (str(exc) + _write_failure(p, comm, ctx, entry(str(exc), 4, exc.stage)),)
         raise
     except NumericalError as exc:      # every rank raises it alike
         _write_failure(p, comm, ctx, entry(str(exc), exc.exit_code))
@@ -211,7 +216,7 @@ def run(p, comm) -> dict:
 def _write_failure(p, comm, ctx, error) -> str:
     """Rank 0 writes the summary of a failed run: what was computed, ``"completed": false``
     and ``error``; returns "; summary PATH" for the error line (or why it was not written)."""
-    if comm.getRank() != 0 or ctx["summary"] is None and error["kind"] != "internal":
+    if comm.getRank() != 0 or ctx["summary"] is None and error["kind"] == "numerical":
         return ""
     path = p.summary or os.path.join(p.output, "summary.json")
     summary = dict(ctx["summary"] or {"analysis": "eigen"})

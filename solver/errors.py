@@ -14,10 +14,21 @@ class NumericalError(Exception):
     exit_code = 3
 
 
-class Interrupted(Exception):
-    """A run stopped by SIGTERM or SIGINT after writing a checkpoint. Exit code 4."""
+class Interrupted(BaseException):
+    """A run stopped by SIGTERM or SIGINT (:mod:`solver.signals`), after writing the summary
+    and, once stepping has begun, a checkpoint. Exit code 4. ``stage``: where it stopped.
+    ``agreed``: every rank stopped at the same point (between two steps), so the ranks can
+    go on together; otherwise a parallel run aborts MPI after the summary.
+
+    A BaseException, as KeyboardInterrupt is: raised by a signal's handler wherever the run
+    is, it must pass through the ``except Exception`` of code that handles its own
+    failures."""
 
     exit_code = 4
+
+    def __init__(self, message="", stage="", agreed=False):
+        super().__init__(message)
+        self.stage, self.agreed = stage, agreed
 
 
 class InternalError(Exception):
@@ -37,18 +48,32 @@ def describe(exc: BaseException) -> str:
 def agree(comm, failure) -> str:
     """The first failure of any rank as one line, or None on every rank if there is none.
     Collective over the PETSc communicator ``comm``: every rank calls it, failed or not."""
-    mine = None if failure is None else describe(failure)
+    return agree_code(comm, failure)[0]
+
+
+def agree_code(comm, failure) -> tuple:
+    """(:func:`agree`'s line, the exit code of that failure: 4 for a signal, else 5), or
+    (None, 0). A signal's line is its own message, without the type's name."""
+    mine = None
+    if failure is not None:
+        mine = (str(failure), 4) if isinstance(failure, Interrupted) else (describe(failure), 5)
     if comm.getSize() == 1:
-        return mine
+        return mine or (None, 0)
     every = comm.tompi4py().allgather(mine)
-    where = [(rank, text) for rank, text in enumerate(every) if text is not None]
-    return None if not where else f"{where[0][1]} (on rank {where[0][0]})"
+    where = [(rank, got) for rank, got in enumerate(every) if got is not None]
+    if not where:
+        return None, 0
+    rank, (text, code) = where[0]
+    return f"{text} (on rank {rank})", code
 
 
 KINDS = {2: "input", 3: "numerical", 4: "interrupted", 5: "internal"}
 
 
-def entry(message: str, code: int) -> dict:
+def entry(message: str, code: int, stage: str = "") -> dict:
     """The ``error`` entry of the summary of a failed run: the one-line message, the exit
-    code and its kind."""
-    return {"kind": KINDS[code], "exit_code": code, "message": " ".join(message.split())}
+    code and its kind, and the stage of the run where it happened when known."""
+    out = {"kind": KINDS[code], "exit_code": code, "message": " ".join(message.split())}
+    if stage:
+        out["stage"] = stage
+    return out

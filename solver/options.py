@@ -203,8 +203,13 @@ SPEC = [
            (CONSOLIDATION,), _nonnegative),
     Option("checkpoint_seconds", "float", 0.0, "also write it every S seconds of wall time",
            (CONSOLIDATION,), _nonnegative),
-    Option("restart", "str", "", "continue the run stored in this checkpoint file",
+    Option("restart", "str", "", "continue the run stored in this checkpoint file, with its "
+           "options (-mpm_restart CK alone); options beside it may change only the output, "
+           "the end and report times and the cadence of fields, checkpoints and progress",
            (CONSOLIDATION,)),
+    Option("overwrite", "bool", False, "let -mpm_restart write into an -mpm_output that "
+           "holds another run's results (its summary, field series or checkpoint); the "
+           "field series starts again from the checkpoint's own times", (CONSOLIDATION,)),
     Option("progress", "float", 10.0, "seconds between progress lines (0: none)",
            (CONSOLIDATION,), _nonnegative),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
@@ -282,7 +287,20 @@ def _describe(opt: Option, value) -> str:
     return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
 
 
-def read(spec=None, db=None, origins=None):
+def _from_json(opt: Option, value):
+    """A value as JSON holds it (a checkpoint's options): lists as tuples, null as NaN."""
+    if value is None and opt.kind == "float":
+        return math.nan
+    return tuple(value) if isinstance(value, list) else value
+
+
+def text(name: str, value) -> str:
+    """Option ``name``'s value as the command line writes it (a list comma-separated)."""
+    opt = _BY_NAME[name]
+    return _describe(opt, _from_json(opt, value))
+
+
+def read(spec=None, db=None, origins=None, base=None):
     """Read, parse and check every ``-mpm_`` option; raise :class:`InputError` on the first fault.
 
     ``db`` is a ``PETSc.Options`` (the global database when None). Options that no analysis
@@ -295,6 +313,8 @@ def read(spec=None, db=None, origins=None):
     holds every option's value, ``given`` (the names set), ``from_file`` (those of them a
     scene file set: ``{name: "FILE:LINE"}``) and ``notes`` (lines to print before the run).
     Every option given is fetched by name, which marks it used for ``-options_left``.
+    ``base`` ({name: value as JSON holds it}, a checkpoint's options) gives the values of
+    the options not given, in place of the defaults.
     """
     from petsc4py import PETSc
 
@@ -313,9 +333,11 @@ def read(spec=None, db=None, origins=None):
             raise InputError(f"-{PREFIX}{name}: unknown option{hint}")
 
     values = {}
+    base = base or {}
     for opt in spec:
         if opt.name not in given:
-            values[opt.name] = opt.default
+            values[opt.name] = _from_json(opt, base[opt.name]) if opt.name in base \
+                else opt.default
             continue
         # PETSc stores an option given without a value as None (or "").
         text = "" if given[opt.name] is None else str(given[opt.name])

@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 from contextlib import contextmanager
+from xml.sax.saxutils import escape, quoteattr, unescape
 
 import numpy as np
 
@@ -123,30 +125,46 @@ class XdmfSeries:
     """Point fields as an XDMF 3 time series with HDF5 data: ParaView opens the .xdmf
     directly (its XDMF readers), meshio reads it (``meshio.xdmf.TimeSeriesReader``).
 
-    A killed job loses nothing already written: each time step's data go to their own HDF5
-    file (``<stem>_<step>.h5``, written whole), and the .xdmf index, which lists every step
-    written so far, is rewritten whole after each one. meshio's ``TimeSeriesWriter`` is not
-    used because it writes its index only when closed and keeps one HDF5 file open
-    throughout (meshio 5.0 also puts that file in the working directory): a killed job would
-    keep no index, and possibly a damaged HDF5 file. The layout otherwise is meshio's.
+    A killed job loses nothing already written, and each output costs the same however
+    many came before: each time step's data go to their own HDF5 file (``<stem>_<step>.h5``,
+    written whole), and its entry is written into the .xdmf index in place of the closing
+    tags, followed by them again (one write at the end of the file), so the index stays
+    whole after every output. Rewriting the index whole after each output made a run's
+    output time grow as the square of the outputs (1,181 outputs: 100 s). The index is
+    written whole (under a temporary name, then renamed) at the first output of a writer,
+    which is how a restart takes up a series. meshio's ``TimeSeriesWriter`` is not used
+    because it writes its index only when closed and keeps one HDF5 file open throughout.
 
     Every step carries its points' current positions (m, z = 0) as its geometry and one
     VTK vertex cell per point (XDMF Polyvertex); each field is an Attribute on the points:
-    (N,) arrays are scalars, (N, 3) vectors. Only rank 0 writes; callers gather.
+    (N,) arrays are scalars, (N, 3) vectors. ``run_id`` (a string) marks the index (an
+    Information element of its Domain) and every HDF5 file (attribute ``run_id``), so that
+    a restart tells its own series from another run's. Only rank 0 writes; callers gather.
     """
 
-    def __init__(self, path, entries=()):
+    def __init__(self, path, entries=(), run_id=None):
         self.path = path
         self.folder = os.path.dirname(os.path.abspath(path))
         self.stem = os.path.splitext(os.path.basename(path))[0]
-        # (t (s), HDF5 file name, number of points, [[field, components], ...]) per step:
-        # plain lists, so a checkpoint stores them as JSON and a restart rebuilds the index.
-        self.entries = [list(e) for e in entries]
+        self.run_id = run_id
+        self.entries = entries
+
+    @property
+    def entries(self) -> list:
+        """(t (s), HDF5 file name, number of points, [[field, components], ...]) per step:
+        plain lists, so a checkpoint stores them as JSON and a restart rebuilds the index."""
+        return self._entries
+
+    @entries.setter
+    def entries(self, entries):
+        self._entries = [list(e) for e in entries]
+        self._names = {e[1] for e in self._entries}
+        self._appending = False     # True once the index on disk lists exactly the entries
 
     def write(self, step: int, t: float, xy, fields: dict):
         """Add step ``step`` at time ``t`` (s): points ``xy`` (N, 2) in m and ``fields``
         {name: (N,) or (N, c) array, or a function returning one, called in turn so that
-        only one field at a time need be in memory}; then rewrite the index."""
+        only one field at a time need be in memory}; then add it to the index."""
         import h5py
 
         n = len(xy)
@@ -154,6 +172,8 @@ class XdmfSeries:
         layout = []
         with atomic(os.path.join(self.folder, name)) as tmp:
             with h5py.File(tmp, "w") as h5:
+                if self.run_id:
+                    h5.attrs["run_id"] = self.run_id
                 h5["geometry"] = np.column_stack([xy, np.zeros(n)])
                 h5["topology"] = np.arange(n, dtype=np.int64).reshape(-1, 1)
                 for key, value in fields.items():
@@ -161,40 +181,95 @@ class XdmfSeries:
                     h5[key] = value
                     layout.append([key, int(np.prod(value.shape[1:]))])
                     del value
-        self.entries = [e for e in self.entries if e[1] != name] + [[t, name, n, layout]]
-        write_text(self.path, self.index())
+        entry = [t, name, n, layout]
+        if name in self._names:         # a step written again replaces its entry
+            self.entries = [e for e in self._entries if e[1] != name]
+        self._entries.append(entry)
+        self._names.add(name)
+        if not (self._appending and self._append(entry)):
+            self.rewrite()
+
+    def rewrite(self):
+        """Write the index whole from the entries (a series taken up again); with none,
+        remove an index left at the path (another series')."""
+        if self.entries:
+            write_text(self.path, self.index())
+            self._appending = True
+        elif os.path.exists(self.path):
+            os.remove(self.path)
+
+    def _append(self, entry) -> bool:
+        """Write ``entry``'s grid over the closing tags of the index on disk, and the tags
+        after it; False (nothing written) when the index does not end as this writer left
+        it."""
+        tail = _XDMF_TAIL.encode()
+        text = (self._grid(*entry) + _XDMF_TAIL).encode()
+        try:
+            fd = os.open(self.path, os.O_RDWR)
+        except OSError:
+            return False
+        try:
+            end = os.lseek(fd, 0, os.SEEK_END)
+            if end < len(tail) or os.pread(fd, len(tail), end - len(tail)) != tail:
+                return False
+            os.pwrite(fd, text, end - len(tail))     # one write: longer than the tail
+        finally:
+            os.close(fd)
+        return True
 
     def index(self) -> str:
         """The .xdmf text: a temporal collection of one grid per entry."""
-        import xml.etree.ElementTree as ET
+        info = "" if not self.run_id else \
+            f'    <Information Name="run_id" Value={quoteattr(str(self.run_id))} />\n'
+        return ('<?xml version="1.0"?>\n<Xdmf Version="3.0">\n  <Domain>\n' + info
+                + f'    <Grid Name={quoteattr(self.stem)} GridType="Collection" '
+                'CollectionType="Temporal">\n'
+                + "".join(self._grid(*e) for e in self.entries) + _XDMF_TAIL)
 
-        root = ET.Element("Xdmf", Version="3.0")
-        series = ET.SubElement(ET.SubElement(root, "Domain"), "Grid", Name=self.stem,
-                               GridType="Collection", CollectionType="Temporal")
-        for t, name, n, layout in self.entries:
-            grid = ET.SubElement(series, "Grid", Name=os.path.splitext(name)[0],
-                                 GridType="Uniform")
-            ET.SubElement(grid, "Time", Value=repr(float(t)))
-            topo = ET.SubElement(grid, "Topology", TopologyType="Polyvertex",
-                                 NumberOfElements=str(n), NodesPerElement="1")
-            _data_item(topo, f"{name}:/topology", (n, 1), "Int")
-            _data_item(ET.SubElement(grid, "Geometry", GeometryType="XYZ"),
-                       f"{name}:/geometry", (n, 3))
-            for key, comps in layout:
-                att = ET.SubElement(grid, "Attribute", Name=key, Center="Node",
-                                    AttributeType="Scalar" if comps == 1 else "Vector")
-                _data_item(att, f"{name}:/{key}", (n,) if comps == 1 else (n, comps))
-        ET.indent(root)
-        return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode")
+    @staticmethod
+    def _grid(t, name, n, layout) -> str:
+        """The index's grid of one entry: time, points as vertices, fields."""
+        def item(where, shape, kind="Float", pad=10):
+            # An HDF5 DataItem of 8-byte numbers of ``shape`` at file:/dataset ``where``.
+            return (" " * pad + f'<DataItem DataType="{kind}" Precision="8" Format="HDF" '
+                    f'Dimensions="{" ".join(map(str, shape))}">{escape(where)}</DataItem>\n')
+
+        lines = [f'      <Grid Name={quoteattr(os.path.splitext(name)[0])} '
+                 'GridType="Uniform">\n',
+                 f'        <Time Value="{float(t)!r}" />\n',
+                 f'        <Topology TopologyType="Polyvertex" NumberOfElements="{n}" '
+                 'NodesPerElement="1">\n', item(f"{name}:/topology", (n, 1), "Int"),
+                 '        </Topology>\n        <Geometry GeometryType="XYZ">\n',
+                 item(f"{name}:/geometry", (n, 3)), '        </Geometry>\n']
+        for key, comps in layout:
+            kind = "Scalar" if comps == 1 else "Vector"
+            lines += [f'        <Attribute Name={quoteattr(key)} Center="Node" '
+                      f'AttributeType="{kind}">\n',
+                      item(f"{name}:/{key}", (n,) if comps == 1 else (n, comps)),
+                      '        </Attribute>\n']
+        return "".join(lines + ["      </Grid>\n"])
 
 
-def _data_item(parent, where: str, shape, kind="Float"):
-    """An HDF5 DataItem (8-byte numbers) of ``shape`` at ``where`` (file:/dataset)."""
-    import xml.etree.ElementTree as ET
+_XDMF_TAIL = "    </Grid>\n  </Domain>\n</Xdmf>\n"
 
-    item = ET.SubElement(parent, "DataItem", DataType=kind, Precision="8", Format="HDF",
-                         Dimensions=" ".join(map(str, shape)))
-    item.text = where
+
+def series_run_id(path):
+    """The run id that marks the XDMF index or HDF5 file ``path`` (XdmfSeries), or None
+    (none, or not readable)."""
+    try:
+        if path.endswith(".h5"):
+            import h5py
+
+            with h5py.File(path, "r") as h5:
+                value = h5.attrs.get("run_id")
+            return None if value is None else str(value)
+        # The mark is in the index's first lines: no need to parse a long series.
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = fh.read(4096)
+        found = re.search(r'<Information Name="run_id" Value="([^"]*)"', head)
+        return None if found is None else unescape(found.group(1))
+    except Exception:   # noqa: BLE001  (damaged or foreign: not this run's)
+        return None
 
 
 # Formats save_figure writes: PNG for the reports and the docs, PDF and SVG (vector) for

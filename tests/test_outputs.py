@@ -345,6 +345,52 @@ def test_xdmf_index_is_whole_after_every_step(tmp_path):
     assert again.index() == series.index()
 
 
+def test_xdmf_series_appends_in_constant_work_per_output(tmp_path):
+    """10^4 outputs of a small body: after the first, each output adds its grid to the
+    index in place (the file is never replaced: same inode) and the index grows by the
+    same number of bytes per output (its Time value aside); the index on disk is the whole
+    series, which meshio reads back, first and last step included. Whole rewrites made
+    the cost grow with the outputs (issue 22: 1,181 outputs took 100 s)."""
+    from solver import output
+
+    path = tmp_path / "pts.xdmf"
+    series = output.XdmfSeries(str(path), run_id="run-a")
+    xy = np.array([[0.0, 0.0], [1.0, 0.5], [2.0, 1.0]])
+    growth, inode = [], None
+    for k in range(10_000):
+        before = path.stat().st_size if k else 0
+        series.write(k, 1.0 + k, xy, {"p": np.full(3, float(k)), "u": np.zeros((3, 3))})
+        growth.append(path.stat().st_size - before)
+        inode = inode or path.stat().st_ino
+        assert path.stat().st_ino == inode
+    # Times 1.0 ... 10000.0 print with 3 to 7 characters.
+    assert max(growth[1:]) - min(growth[1:]) == 4
+    assert path.read_text() == series.index()
+    with meshio.xdmf.TimeSeriesReader(path) as read:
+        read.read_points_cells()
+        assert read.num_steps == 10_000
+        for k in (0, 9_999):
+            t, data, _ = read.read_data(k)
+            assert t == 1.0 + k
+            np.testing.assert_array_equal(data["p"], np.full(3, float(k)))
+    assert output.series_run_id(str(path)) == "run-a"
+    assert output.series_run_id(str(tmp_path / "pts_0009999.h5")) == "run-a"
+
+
+def test_xdmf_index_rewritten_whole_when_its_end_is_not_its_own(tmp_path):
+    """An index whose end another hand changed is written whole again, not appended to."""
+    from solver import output
+
+    path = tmp_path / "pts.xdmf"
+    series = output.XdmfSeries(str(path))
+    xy = np.zeros((2, 2))
+    series.write(0, 0.0, xy, {"p": np.zeros(2)})
+    path.write_text(path.read_text() + "<!-- edited -->\n")
+    series.write(1, 1.0, xy, {"p": np.ones(2)})
+    assert path.read_text() == series.index()
+    assert len(_series(path)[2]) == 2
+
+
 @pytest.mark.mpi(2)
 def test_restart_continues_series_and_settlement(cli, tmp_path):
     """A run stopped after a checkpoint and restarted (on 2 ranks) in the same folder: the

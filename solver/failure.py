@@ -1,0 +1,83 @@
+"""What a consolidation run that stops early writes: the summary so far (``"completed":
+false``, the ``error`` with the stage it stopped in) and, once the points hold a whole
+step after the stepping began, a checkpoint to continue from."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from . import output, provenance, signals
+from .errors import InternalError, Interrupted, describe, entry
+
+
+class RunFailure:
+    """What the failure handler of :func:`consolidation.run` needs, set as the run gets
+    there."""
+
+    def __init__(self, comm):
+        self.phase = "set-up"        # then "stepping", "reporting"
+        self.summary = None          # the summary so far, and where it goes
+        self.summary_path = ""
+        self.early = {"analysis": "consolidation"}   # the summary before there is one
+        self.save = None             # save(step) writes a checkpoint (collective)
+        self.ckpt_path = ""
+        self.start = None            # the step the run started from (0, or a restart's)
+        self.whole = None            # the last step whose points and records all agree
+        self.t_wall = time.perf_counter()
+        self.cleanup = []            # calls that undo the run's settings (FP)
+        self.owned = []              # PETSc objects (and their owners), destroyed by run()
+
+    def begin(self, p, run_id):
+        """The run's options ``p`` and id, for a summary written before the full one (no
+        collective: the options as provenance records them, and the command line)."""
+        self.early = {"analysis": "consolidation", "run_id": run_id,
+                      "provenance": {"argv": list(sys.argv),
+                                     "options": provenance.options(p)}}
+
+    def record(self, comm, message, exc=None, code=5, stage="", agreed=True):
+        """Write what a stopped run can (a checkpoint when the state is whole, the stepping
+        has begun and ``agreed``: every rank takes part; the summary on rank 0); return the
+        exception to raise: InternalError (``code`` 5) or Interrupted (4) of ``message``
+        (None: write the summary of ``exc`` only)."""
+        for undo in self.cleanup:
+            undo()
+        stage = stage or signals.current() or self.phase
+        text = message if code == 4 else f"internal error: {message or describe(exc)}"
+        said = []
+        ckpt = None
+        if message is not None and agreed and self.whole is not None \
+                and self.whole > self.start:
+            try:
+                self.save(self.whole)
+                ckpt = self.ckpt_path
+                said.append(f"checkpoint {ckpt} at step {self.whole} (continue with "
+                            f"-mpm_restart {ckpt})")
+            except Exception as err:   # noqa: BLE001  (the disk may be what failed)
+                said.append(f"no checkpoint ({describe(err)})")
+        if comm.getRank() == 0 and self.summary_path:
+            said.append(self._write_summary(text, code, stage, ckpt))
+        if message is None:
+            return None
+        said = f"; {', '.join(said)}" if said else ""
+        if code == 4:
+            return Interrupted(text + said, stage=stage, agreed=agreed)
+        return InternalError(text + said)
+
+    def _write_summary(self, text, code, stage, ckpt) -> str:
+        """The summary of the stopped run (rank 0); what the error line says of it."""
+        summary = dict(self.summary or self.early)
+        files = {"summary": self.summary_path}
+        if ckpt:
+            files["checkpoint"] = ckpt
+        summary.update(completed=False, error=entry(text, code, stage), files=files,
+                       wall_seconds=time.perf_counter() - self.t_wall)
+        if code == 4:
+            summary["interrupted"] = True
+        if self.whole is not None:
+            summary["steps"] = self.whole
+        try:
+            output.write_json(self.summary_path, summary)
+        except Exception as err:   # noqa: BLE001
+            return f"no summary ({describe(err)})"
+        return f"summary {self.summary_path}"
