@@ -31,8 +31,9 @@ per value of c. The states:
   step load's discontinuity at the drained sides is damped, where Crank-Nicolson
   oscillates); both stages solve with J(gamma h / 2), equilibrium imposed at every stage.
   Steps are geometrically graded: ``steps`` equal steps on [0, t_s] and on every doubling
-  [t_s 2^j, t_s 2^(j+1)] up to the last time asked (a step that passes a time asked is
-  split there), t_s = t_1 / steps^4 by default (t_1 the first time asked > 0): the first
+  [t_s 2^j, t_s 2^(j+1)] up to the first time asked, then on intervals of equal ratio (at
+  most 2) between successive times asked (each time asked a step's end, one factorization
+  per interval), t_s = t_1 / steps^4 by default (t_1 the first time asked > 0): the first
   block's error, from the sqrt(t) start of the drainage, falls only as sqrt(t_s), and this
   t_s keeps it below the graded steps' O(steps^-2) (with t_1 / 64 it dominated: order 1);
 - drained, t -> infinity: p = 0, K u = f.
@@ -44,8 +45,8 @@ classic c_v = k E_c / gamma_w, as max |dp| / q over a 9 x 9 lattice of points
 (``scripts/biot-convergence``; Q8/Q4 alike): in space, 16 -> 32 cells per side 2.3e-3,
 4.2e-4, 1.1e-4 (32 -> 64: 5.8e-4, 1.1e-4, 2.7e-5; order 2.00, so the default's own error
 is about 4/3 of the first row: 3e-3 q at T = 0.05, take 32 x 32 cells below 1e-3); in time,
-16 -> 32 steps per doubling 1.5e-5, 2.9e-5, 2.1e-5 (order 2). The settlement |ds| / s_inf:
-6.7e-4, 5.2e-4, 7.9e-5 in space, 3.4e-6, 1.6e-5, 1.2e-5 in time.
+16 -> 32 steps per doubling 1.2e-5, 2.3e-5, 1.1e-5 (order 2). The settlement |ds| / s_inf:
+6.7e-4, 5.2e-4, 7.9e-5 in space, 2.7e-6, 1.3e-5, 6.1e-6 in time.
 """
 
 from __future__ import annotations
@@ -210,24 +211,33 @@ class _Mesh:
 
     def __init__(self, element, cells, size):
         self.element, self.cells, self.size = element, tuple(cells), size
-        with Grid(PETSc.COMM_SELF, element, cells, size) as gu, \
-                Grid(PETSc.COMM_SELF, "q4", cells, size) as gp:
-            self.h = gu.h
-            conn = gu.cell_connectivity()
-            used = np.zeros(gu.nodes[0] * gu.nodes[1], dtype=bool)
-            used[conn.ravel()] = True
-            compact = np.cumsum(used) - 1
-            self.u_conn = compact[conn]
-            self.u_xy = gu.lattice_coordinates()[used]
+        self.grid = gu = Grid(PETSc.COMM_SELF, element, cells, size)
+        self.h = gu.h
+        conn = gu.cell_connectivity()
+        used = np.zeros(gu.nodes[0] * gu.nodes[1], dtype=bool)
+        used[conn.ravel()] = True
+        compact = np.cumsum(used) - 1
+        self.u_conn = compact[conn]
+        self.u_xy = gu.lattice_coordinates()[used]
+        with Grid(PETSc.COMM_SELF, "q4", cells, size) as gp:
             self.p_conn = gp.cell_connectivity()
             self.p_xy = gp.lattice_coordinates()
-            self.locate = gu.locate
         self.nu_dof = 2 * len(self.u_xy)
         self.ndof = self.nu_dof + len(self.p_xy)
         self.u_dofs = np.stack([2 * self.u_conn, 2 * self.u_conn + 1], -1).reshape(
             len(conn), -1)
         self.p_dofs = self.nu_dof + self.p_conn
         self.row = np.arange(len(conn)) // cells[0]   # cy of each cell
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.grid.destroy()
+
+    def locate(self, xy):
+        """Cells (cx, cy) and natural coordinates (xi, eta) of points xy (n, 2) in m."""
+        return self.grid.locate(xy)
 
     def on_side(self, xy, side):
         """Mask of the nodes ``xy`` (n, 2) on a side of the rectangle."""
@@ -255,8 +265,9 @@ class _Mesh:
         hy, ny = self.h[1], self.cells[1]
         depth = np.cumsum(body.thicknesses())[:-1] / hy
         if np.any(np.abs(depth - np.round(depth)) > 1e-9 * ny):
-            raise InputError(f"biot layers: an interface lies inside a cell (cells {ny} "
-                             f"high of {hy:g} m; interfaces at depth {depth * hy} m)")
+            at = ", ".join(f"{v:g}" for v in depth * hy)
+            raise InputError(f"biot layers: an interface lies inside a cell ({ny} cells "
+                             f"of {hy:g} m up; interfaces at depths {at} m)")
         top_down = np.searchsorted(np.round(depth), np.arange(ny), side="right")
         return top_down[::-1]
 
@@ -340,7 +351,7 @@ class _Solver:
         pc = ksp.getPC()
         pc.setType(PETSc.PC.Type.LU)
         # J is quasi-definite (K and S + c H positive definite), so LU without pivoting is
-        # stable in any ordering: PETSc's own, 3 x faster than MUMPS on 16 x 16 cells.
+        # stable in any ordering: PETSc's own, faster than MUMPS on 16 x 16 cells.
         pc.setFactorSolverType("petsc")
         ksp.setOptionsPrefix("biot_")
         ksp.setFromOptions()
@@ -380,22 +391,23 @@ class _Solver:
 
 
 def schedule(times, steps: int, start: float) -> np.ndarray:
-    """Ends (s) of the time steps: ``steps`` equal steps on [0, t_s] and on each doubling
-    [t_s 2^j, t_s 2^(j+1)], t_s = t_end 2^-L <= ``start`` (t_end the last of ``times``), with
-    every time of ``times`` an end (the step it falls in split there)."""
+    """Ends (s) of the time steps: ``steps`` equal steps on [0, t_s] and on each interval of
+    a geometric grading through the ``times`` asked (each one an end): the doublings
+    [t_s 2^j, t_s 2^(j+1)] up to the first time t_1 = t_s 2^L (L the least with t_s <=
+    ``start``), then between successive times asked intervals of equal ratio, at most 2."""
     asked = np.unique(np.asarray(times, dtype=float))
     asked = asked[asked > 0]
     if asked.size == 0:
         return asked
-    t_end = asked[-1]
-    levels = max(0, math.ceil(math.log2(t_end / start) - 1e-12))
-    edges = t_end * 2.0 ** -np.arange(levels, -1, -1)
+    levels = max(0, math.ceil(math.log2(asked[0] / start) - 1e-12))
+    edges = [asked[0] * 2.0 ** -np.arange(levels, -1, -1)]
+    for a, b in zip(asked[:-1], asked[1:]):
+        m = max(1, math.ceil(math.log2(b / a) - 1e-12))
+        edges.append(np.r_[a * (b / a) ** (np.arange(1, m) / m), b])
+    edges = np.concatenate(edges)
     ends = [np.linspace(0, edges[0], steps + 1)[1:]]
     ends += [np.linspace(a, b, steps + 1)[1:] for a, b in zip(edges[:-1], edges[1:])]
-    ends = np.concatenate(ends)
-    # Grid ends within round-off of a time asked would make a step of nothing.
-    near = np.abs(ends[:, None] - asked[None, :]).min(axis=1) <= 1e-12 * t_end
-    return np.union1d(ends[~near], asked)
+    return np.concatenate(ends)
 
 
 def _interpolation(mesh, xy, field):
@@ -464,6 +476,30 @@ def _check_run(comm, times, points, cells, element, steps):
         raise InputError("biot points: an array of (x, y) pairs (m)")
 
 
+def _discretise(mesh, body, points, surface):
+    """The operators (scipy CSR) J(0), M, H, the load vector F (N), the pressure probe at
+    ``points`` and the settlement operator (mean over the loaded part, or at ``surface``)."""
+    J0, M, H = _operators(mesh, body)
+    x0, x1 = body.loaded
+    e = _top_weights(mesh, x0, x1)
+    if surface is None:
+        settle = sp.csr_matrix(-e / (x1 - x0))
+    else:
+        xs = np.asarray(surface, dtype=float).ravel()
+        settle = -_interpolation(mesh, np.stack([xs, np.full_like(xs, body.size[1])], -1),
+                                 "uy")
+    return J0, M, H, -body.load * e, _interpolation(mesh, points, "p"), settle
+
+
+def _scaling(mesh, body) -> np.ndarray:
+    """d (ndof,): y = d y_hat makes K, Q and the storage block's Schur complement O(1)
+    (the displacement rows by 1/sqrt(E_c), the pressure unknowns by sqrt(E_c) / h)."""
+    E_c = body.constrained_modulus().max()
+    d = np.full(mesh.ndof, 1 / math.sqrt(E_c))
+    d[mesh.nu_dof:] = math.sqrt(E_c) / min(mesh.h)
+    return d
+
+
 def solve(comm, body: Body, times, points, surface=None, cells=(16, 16), element="q9",
           steps=16, start=None) -> Result:
     """Pore pressure (Pa) at ``points`` (n, 2; m) and the settlement (m, downwards) at
@@ -475,27 +511,11 @@ def solve(comm, body: Body, times, points, surface=None, cells=(16, 16), element
     times = np.asarray(times, dtype=float)
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     _check_run(comm, times, points, cells, element, steps)
-    mesh = _Mesh(element, tuple(int(c) for c in cells), body.size)
-    J0, M, H = _operators(mesh, body)
-    W, Ht = body.size
-    e = _top_weights(mesh, *body.loaded)
-    F = -body.load * e
-    if surface is None:
-        settle = sp.csr_matrix(-e / (body.loaded[1] - body.loaded[0]))
-    else:
-        xs = np.asarray(surface, dtype=float).ravel()
-        settle = -_interpolation(mesh, np.stack([xs, np.full_like(xs, Ht)], -1), "uy")
-    probe = _interpolation(mesh, points, "p")
-    # Symmetric scaling: the stiffness block by E_c and the pressure unknowns by E_c / h,
-    # which makes K, Q and the storage block's Schur complement all O(1).
-    E_c = body.constrained_modulus().max()
-    d = np.full(mesh.ndof, 1 / math.sqrt(E_c))
-    d[mesh.nu_dof:] = math.sqrt(E_c) / min(mesh.h)
-    solver = _Solver(comm, J0, H, d)
-    fixed_u = mesh.fixed_u(body.bcs)
-    try:
-        y0 = solver.solve(0.0, fixed_u, F)
-        asked = np.unique(times)
+    asked = np.unique(times)
+    first = asked[asked > 0]
+    ends = schedule(asked, steps, start or (first[0] / steps**4 if first.size else 1.0))
+    with _Mesh(element, tuple(int(c) for c in cells), body.size) as mesh:
+        J0, M, H, F, probe, settle = _discretise(mesh, body, points, surface)
         out_p = np.empty((asked.size, len(points)))
         out_s = np.empty((asked.size, settle.shape[0]))
 
@@ -504,19 +524,23 @@ def solve(comm, body: Body, times, points, surface=None, cells=(16, 16), element
             if i < asked.size and asked[i] == t:
                 out_p[i], out_s[i] = probe @ y, settle @ y
 
-        record(0.0, y0)
-        first = asked[asked > 0]
-        ends = schedule(asked, steps, start or (first[0] / steps**4 if first.size else 1.0))
-        fixed = np.union1d(fixed_u, mesh.drained_p(body.drained))
-        _march(solver, (F, M, H), y0, ends, fixed, record)
-        y_inf = solver.solve(0.0, np.union1d(fixed_u, np.arange(mesh.nu_dof, mesh.ndof)), F)
-    finally:
-        solver.destroy()
+        solver = _Solver(comm, J0, H, _scaling(mesh, body))
+        fixed_u = mesh.fixed_u(body.bcs)
+        try:
+            y0 = solver.solve(0.0, fixed_u, F)
+            record(0.0, y0)
+            fixed = np.union1d(fixed_u, mesh.drained_p(body.drained))
+            _march(solver, (F, M, H), y0, ends, fixed, record)
+            every_p = np.arange(mesh.nu_dof, mesh.ndof)
+            y_inf = solver.solve(0.0, np.union1d(fixed_u, every_p), F)
+        finally:
+            solver.destroy()
     pick = np.searchsorted(asked, times)
     one = surface is None
     s_0, s_inf = settle @ y0, settle @ y_inf
     return Result(times=times, pressure=out_p[pick],
                   settlement=out_s[pick, 0] if one else out_s[pick],
-                  undrained=float(s_0[0]) if one else s_0, drained=float(s_inf[0]) if one
-                  else s_inf, undrained_pressure=probe @ y0, steps=len(ends),
+                  undrained=float(s_0[0]) if one else s_0,
+                  drained=float(s_inf[0]) if one else s_inf,
+                  undrained_pressure=probe @ y0, steps=len(ends),
                   factorizations=solver.factorizations)
