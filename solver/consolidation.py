@@ -19,10 +19,11 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (analytic, assembly, checkpoint, eigen, failure, fields, figures, inertia,
-               jacobi, memory, output, provenance, scene, shapes, signals, timestep,
-               workprecision)
+from . import (analytic, assembly, checkpoint, eigen, figures, inertia, jacobi, memory,
+               output, provenance, scene, shapes, signals, timestep, workprecision)
 from .errors import InputError, Interrupted, NumericalError, agree_code, entry
+from .failure import RunFailure
+from .fields import PointSeries
 from .twophase import TwoPhase
 
 MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
@@ -140,7 +141,7 @@ def run(p, comm) -> int:
     leaves the others in a collective, and reaches the caller as it is (to abort MPI).
     The PETSc objects the run made are destroyed on the way out, after the failure
     handling (its checkpoint needs the points)."""
-    ctx = failure.RunFailure(comm)
+    ctx = RunFailure(comm)
     try:
         return _handled(p, comm, ctx)
     finally:
@@ -177,7 +178,6 @@ def _handled(p, comm, ctx) -> int:
 def _run(p, comm, ctx) -> int:
     """The run itself (see :func:`run`): :func:`_set_up`, :func:`_time_loop` and
     :func:`_finish`; ``ctx`` follows it for the failure handler."""
-    ctx.summary_path = p.summary or os.path.join(p.output, "summary.json")
     recorded = checkpoint.recorded(p)      # the options as read: what a restart takes up
     s = _set_up(p, comm, ctx)
     s.run["options"] = recorded
@@ -286,10 +286,11 @@ def _set_up(p, comm, ctx) -> Setup:
     p, goal = _target(p, comm)
     restart = checkpoint.read(p.restart, p) if p.restart else None
     run_id = restart[3] if restart and restart[3] else checkpoint.new_run_id(comm)
-    ctx.begin(p, run_id)
     if restart is not None:
-        # Before anything is computed: a restart never writes over another run's results.
+        # Before anything is computed or written: a restart never writes over another
+        # run's results, not even a stopped run's summary.
         checkpoint.check_folder(p, restart[3], comm)
+    ctx.begin(p, run_id)
     signals.stage("set-up: the time scheme and mass scaling")
     scheme = assembly.step_scheme(p)
     memory.check(p, comm)          # a model that does not fit says so first
@@ -546,7 +547,7 @@ class _Reporting:
         self.state, self.points, p = s.state, s.points, s.p
         self.H, self.q, self.ratio = p.size[1], load_scale(p), s.c2 / s.cv
         self.files = {}
-        self.series = fields.PointSeries(p.output, comm, s.run["id"])
+        self.series = PointSeries(p.output, comm, s.run["id"])
         self.surface = _Surface(s.grid, p)
         self.depths = Depths(self.H)
         self.depths.refresh(s.points)

@@ -4,6 +4,7 @@ step after the stepping began, a checkpoint to continue from."""
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 
@@ -17,8 +18,8 @@ class RunFailure:
 
     def __init__(self, comm):
         self.phase = "set-up"        # then "stepping", "reporting"
-        self.summary = None          # the summary so far, and where it goes
-        self.summary_path = ""
+        self.summary = None          # the summary so far, and where it goes (once the
+        self.summary_path = ""       # output folder is known to be this run's)
         self.early = {"analysis": "consolidation"}   # the summary before there is one
         self.save = None             # save(step) writes a checkpoint (collective)
         self.ckpt_path = ""
@@ -30,7 +31,9 @@ class RunFailure:
 
     def begin(self, p, run_id):
         """The run's options ``p`` and id, for a summary written before the full one (no
-        collective: the options as provenance records them, and the command line)."""
+        collective: the options as provenance records them, and the command line), and
+        where it goes: from here on a stopped run writes its summary."""
+        self.summary_path = p.summary or os.path.join(p.output, "summary.json")
         self.early = {"analysis": "consolidation", "run_id": run_id,
                       "provenance": {"argv": list(sys.argv),
                                      "options": provenance.options(p)}}

@@ -109,7 +109,7 @@ def test_quadratic_cells_drained_through_a_side_are_refused(cli, tmp_path, eleme
 
 
 def _fe_reference(o, t, xy):
-    """p/q of the finite-element reference (Q9/Q4, 16 x 16 cells: within 0.1 % of q of 32 x
+    """p/q of the finite-element reference (Q9/Q4, 16 x 16 cells: within 0.23 % of q of 32 x
     32 on this block) of the run with options ``o`` at time t (s) and points xy (m)."""
     from petsc4py import PETSc
 

@@ -165,6 +165,16 @@ def test_checkpoint_of_an_older_format_still_restarts(cli, tmp_path):
                                rtol=1e-12)
 
 
+def test_help_with_a_restart_shows_the_checkpoints_options(cli, tmp_path):
+    first, ckpt = _part(cli, tmp_path / "run", ["-mpm_load", "2e4"])
+    res = cli(["-mpm_restart", ckpt, "-help"], out_dir=tmp_path / "run")
+    assert res.returncode == 0, res.stderr
+    rows = {line.split("|")[1].strip(" `"): line.split("|")[2].strip(" `")
+            for line in res.stdout.splitlines() if line.startswith("| `-mpm_")}
+    assert rows["-mpm_load"] == "20000.0" and rows["-mpm_analysis"] == "consolidation"
+    assert rows["-mpm_Tv_end"] == "0.02" and rows["-mpm_restart"] == str(ckpt)
+
+
 # -- item 4: the last state of every run ----------------------------------------------------
 def test_shortened_run_writes_its_last_state(cli, tmp_path):
     """-mpm_Tv_end 0.1 on M1-Q4: the scene's report times after it are dropped, and the
