@@ -182,6 +182,7 @@ def _run(p, comm, ctx) -> int:
     s = _set_up(p, comm, ctx)
     s.run["options"] = recorded
     p = s.p
+    signals.stage("set-up: the model and the summary")
     model = TwoPhase(s.grid, s.points, p, scene.boundary_conditions(p), s.scheme)
     ctx.owned.append(model)
     reporting = _Reporting(s, comm)
