@@ -52,6 +52,11 @@ def _validate(p) -> tuple:
                      f"dropped; reporting at T_v = {','.join(f'{t:g}' for t in p.Tv_report)}")
     if p.load == 0 and p.gravity == 0:
         raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
+    if p.load != 0 and "y" in p.bc_top:
+        # The support would carry the load: nothing would settle, and U_p = 1 would be read
+        # as a finished consolidation.
+        raise InputError(f"-mpm_bc_top {p.bc_top}: a top fixed vertically cannot carry "
+                         f"-mpm_load {p.load:g} (use -mpm_bc_top none or x, or -mpm_load 0)")
     _check_lateral_drainage(p)
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")

@@ -62,10 +62,34 @@ def mass_diagnosis(p, exc) -> str:
             f"{what}; check -mpm_ppc and -mpm_points")
 
 
+def rod_applies(p) -> bool:
+    """Whether the analytic 1D rod (fixed at the base, free at the top) is this scene's
+    reference: rollers on both sides, the base fixed vertically, the top free."""
+    bcs = boundary_conditions(p)
+    return (bcs["left"] == bcs["right"] == "x" and "y" in bcs["bottom"]
+            and bcs["top"] == "none")
+
+
+def rigid(freq, scale) -> np.ndarray:
+    """Which of the frequencies ``freq`` (Hz) are rigid-body modes: below ZERO_HZ x ``scale``
+    (the rod's first frequency c / 4H, the column's own frequency scale, Hz)."""
+    return np.asarray(freq) < ZERO_HZ * scale
+
+
+def hz(value, width: int = 0) -> str:
+    """A frequency (Hz) as printed: at least four significant digits (two decimals from
+    10 Hz up), so that a tall column's 0.03387 Hz does not read 0.03; "-" for None."""
+    if value is None:
+        return f"{'-':>{width}s}"
+    v = float(value)
+    decimals = 2 if v == 0 or abs(v) >= 10 else 3 - int(np.floor(np.log10(abs(v))))
+    return f"{v:{width}.{decimals}f}"
+
+
 def zero_energy_diagnosis(p, freq, rod):
     """None, or a warning about modes at (about) 0 Hz; an error (NumericalError) when they
     are hourglass modes of too few points per cell, whose frequencies would be wrong."""
-    zero = max((int(np.count_nonzero(f < ZERO_HZ * rod[0])) for f in freq.values()), default=0)
+    zero = max((int(np.count_nonzero(rigid(f, rod[0]))) for f in freq.values()), default=0)
     if not zero:
         return None
     if p.ppc < _points_needed(p.element):
@@ -73,8 +97,8 @@ def zero_energy_diagnosis(p, freq, rod):
             f"{p.element.upper()} with {_points(p.ppc)}: {zero} zero-energy "
             f"(hourglass) modes at 0 Hz among the lowest {p.nmodes}: the stiffness is "
             f"singular; use -mpm_ppc {_points_needed(p.element)} or more")
-    return (f"{zero} of the lowest {p.nmodes} modes at about 0 Hz: zero-energy modes, "
-            "rigid-body motion that the boundary conditions (-mpm_bc_*) leave free")
+    return (f"{zero} of the lowest {p.nmodes} modes at about 0 Hz: rigid-body modes, motion "
+            "that the boundary conditions (-mpm_bc_*) leave free (listed as \"rigid\")")
 
 
 # The scene (grid, points, boundary conditions, densities) is built by solver.scene.
@@ -289,20 +313,37 @@ def _analysis(p, comm, ctx, owned) -> dict:
     summary["warnings"] = warnings
     summary["frequencies_hz"] = {k: v for k, v in freq.items()}
 
+    scale = rod[0]
+    summary["rigid_modes"] = {k: [int(i) + 1 for i in np.flatnonzero(rigid(v, scale))]
+                              for k, v in freq.items()}
     if len(freq) == 2:
-        rel = np.abs(freq["jacobi"] ** 2 - freq["slepc"] ** 2) / freq["slepc"] ** 2
-        macs = [mac(a, b) for a, b in zip(vecs["jacobi"], vecs["slepc"])]
-        summary["cross_check"] = {"relative_eigenvalue_difference": rel, "mac": macs}
+        summary["cross_check"] = _cross_check(freq, vecs, scale)
 
     refs = _references(p, comm, rod, owned)
     summary["references"] = refs
-    _print_table(comm, freq, refs, summary.get("cross_check"))
+    _print_table(comm, freq, refs, summary.get("cross_check"), scale)
 
     summary["completed"] = True
     ctx["phase"] = "writing"     # the last collectives come first in it: ranks can agree
     summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
-                                      freq.get("jacobi", freq.get("slepc")), rod, summary)
+                                      freq.get("jacobi", freq.get("slepc")),
+                                      refs["rod_hz"], scale, summary)
+    PETSc.Sys.Print(f"Results in {p.output}: " + ", ".join(
+        os.path.relpath(f, p.output) if os.path.dirname(f) == os.path.normpath(p.output)
+        else f for f in summary["files"].values()), comm=comm)
     return summary
+
+
+def _cross_check(freq, vecs, scale) -> dict:
+    """Jacobi against SLEPc, mode by mode: relative eigenvalue difference and MAC; None for
+    a rigid-body mode (of either), whose eigenvalue is rounding and whose shape is any
+    combination of the rigid motions."""
+    fj, fs = freq["jacobi"], freq["slepc"]
+    skip = rigid(fj, scale) | rigid(fs, scale)
+    rel = [None if r else float(abs(a * a - b * b) / (b * b))
+           for a, b, r in zip(fj, fs, skip)]
+    macs = [None if r else mac(a, b) for a, b, r in zip(vecs["jacobi"], vecs["slepc"], skip)]
+    return {"relative_eigenvalue_difference": rel, "mac": macs}
 
 
 def _jacobi(p, comm, K, M, rod, owned) -> tuple:
@@ -345,14 +386,17 @@ def _references(p, comm, rod, owned) -> dict:
     res = slepc_solve(Kg, Mg, p.nmodes, prefix="fe_")
     destroy(*res.vectors)
     fe = frequencies(res.values)
-    refs = {"rod_hz": rod, "fe_gauss_hz": fe}
+    # The rod column only where the rod is the scene (not for a free body, say).
+    refs = {"rod_hz": rod if rod_applies(p) else None, "fe_gauss_hz": fe}
     if is_paper_scene(p):
         refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]
         refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:p.nmodes]
     return refs
 
 
-def _print_table(comm, freq, refs, cross):
+def _print_table(comm, freq, refs, cross, scale):
+    """The frequencies (Hz, four significant digits or more; "rigid" for a rigid-body
+    mode) of each solver and reference, and the cross-check."""
     cols = [("Jacobi", freq.get("jacobi")), ("SLEPc", freq.get("slepc")),
             ("1D rod", refs["rod_hz"]), ("FE Gauss", refs["fe_gauss_hz"]),
             ("paper", refs.get("paper_table3_hz"))]
@@ -362,11 +406,12 @@ def _print_table(comm, freq, refs, cross):
         head += f"{'rel diff':>11s}{'MAC':>9s}"
     lines = ["Natural frequencies (Hz)", head]
     for k in range(len(cols[0][1])):
-        row = f"{k + 1:4d} " + "".join(f"{v[k]:11.2f}" if k < len(v) else " " * 11
-                                       for _, v in cols)
+        row = f"{k + 1:4d} " + "".join(
+            " " * 11 if k >= len(v) else f"{'rigid':>11s}" if rigid(v[k], scale)
+            and name != "1D rod" else hz(v[k], 11) for name, v in cols)
         if cross:
-            row += (f"{cross['relative_eigenvalue_difference'][k]:11.1e}"
-                    f"{cross['mac'][k]:9.5f}")
+            rel, m = cross["relative_eigenvalue_difference"][k], cross["mac"][k]
+            row += f"{'-':>11s}{'-':>9s}" if rel is None else f"{rel:11.1e}{m:9.5f}"
         lines.append(row)
     PETSc.Sys.Print("\n".join(lines), comm=comm)
 
@@ -385,7 +430,7 @@ def _full_modes(grid, free, vectors):
     return modes
 
 
-def _write_results(p, grid, free, vectors, freqs, rod, summary):
+def _write_results(p, grid, free, vectors, freqs, rod, scale, summary):
     comm = grid.comm
     modes = _full_modes(grid, free, vectors)
     summary_path = p.summary or os.path.join(p.output, "summary.json")
@@ -405,33 +450,36 @@ def _write_results(p, grid, free, vectors, freqs, rod, summary):
     output.write_vtu(files["modes_vtu"], coords, [output.grid_cells(grid)], point_data=data,
                      field_data={"frequency_hz": np.asarray(freqs[:len(modes)], dtype=float)})
     if p.figures:
-        fig = mode_figure(grid, coords, modes, freqs, rod, p.size[1])
+        fig = mode_figure(grid, coords, modes, freqs, rod, p.size[1], scale)
         files.update(output.save_figures(fig, p.output, "modes", p.figure_format))
     output.write_json(summary_path, dict(summary, files=files))
     return files
 
 
-def mode_figure(grid, coords, modes, freqs, rod, H):
-    """Mode shapes like the paper's Figure 2: deformed grids and u_y along the column; the
-    caller saves the figure."""
+def mode_figure(grid, coords, modes, freqs, rod, H, scale):
+    """Mode shapes like the paper's Figure 2: deformed grids coloured by the displacement
+    magnitude (a colour bar: |u| over the mode's largest) and u_y along the column, beside
+    the rod's mode where the rod is the scene (``rod`` None: not); the caller saves it."""
     plt = output.pyplot()
     nm = len(modes)
-    fig, axes = plt.subplots(2, nm, figsize=(2.2 * nm, 7), squeeze=False,
+    fig, axes = plt.subplots(2, nm, figsize=(2.2 * nm + 0.8, 7), squeeze=False,
                              gridspec_kw={"height_ratios": [3, 2]})
     W = grid.size[0]
     conn = output.grid_cells(grid)[1]
     corners = conn[:, :4]
     for k, u in enumerate(modes):
-        scale = 0.25 * max(W, 0.1 * H) / max(np.abs(u).max(), 1e-300)
-        xy = coords + scale * u
+        scale_u = 0.25 * max(W, 0.1 * H) / max(np.abs(u).max(), 1e-300)
+        xy = coords + scale_u * u
         ax = axes[0, k]
         for cell in corners:
             ring = np.append(cell, cell[0])
             ax.plot(coords[ring, 0], coords[ring, 1], color="0.85", lw=0.6)
             ax.plot(xy[ring, 0], xy[ring, 1], color="tab:blue", lw=0.9)
         mag = np.hypot(u[:, 0], u[:, 1])
-        ax.scatter(xy[:, 0], xy[:, 1], c=mag, s=6, cmap="viridis", zorder=3)
-        ax.set_title(f"mode {k + 1}\n{freqs[k]:.2f} Hz", fontsize=9)
+        dots = ax.scatter(xy[:, 0], xy[:, 1], c=mag / max(mag.max(), 1e-300), s=6,
+                          cmap="viridis", vmin=0.0, vmax=1.0, zorder=3)
+        what = "rigid" if rigid(freqs[k], scale) else f"{hz(freqs[k])} Hz"
+        ax.set_title(f"mode {k + 1}\n{what}", fontsize=9)
         ax.set_aspect("equal")
         ax.axis("off")
         ax = axes[1, k]
@@ -440,15 +488,18 @@ def mode_figure(grid, coords, modes, freqs, rod, H):
         order = np.argsort(y)
         uy = u[centre, 1][order]
         ax.plot(uy / max(np.abs(uy).max(), 1e-300), y[order], "o-", ms=3, label="MPM")
-        yy = np.linspace(0, H, 200)
-        shape = analytic.rod_mode(yy, H, k + 1)
-        shape *= np.sign(np.dot(analytic.rod_mode(y[order], H, k + 1), uy)) or 1.0
-        ax.plot(shape, yy, "k--", lw=0.8,
-                label=f"rod {rod[k]:.2f} Hz" if k < len(rod) else "rod")
+        if rod is not None:
+            yy = np.linspace(0, H, 200)
+            shape = analytic.rod_mode(yy, H, k + 1)
+            shape *= np.sign(np.dot(analytic.rod_mode(y[order], H, k + 1), uy)) or 1.0
+            ax.plot(shape, yy, "k--", lw=0.8,
+                    label=f"rod {hz(rod[k])} Hz" if k < len(rod) else "rod")
         ax.set_xlabel("u_y (normalised)", fontsize=8)
         if k == 0:
             ax.set_ylabel("height y (m)")
         ax.legend(fontsize=6, loc="lower left")
         ax.tick_params(labelsize=7)
+    fig.colorbar(dots, ax=list(axes[0]), fraction=0.04, pad=0.02,
+                 label="|u| / largest |u| of the mode")
     fig.suptitle(f"Mode shapes, {grid.element.upper()} background grid")
     return fig

@@ -192,3 +192,54 @@ def test_non_finite_matrices():
     Mbad[1, 2] = Mbad[2, 1] = np.inf
     with pytest.raises(NumericalError, match="mass matrix has 2 non-finite"):
         jacobi.solve(petsc_mat(Kd), petsc_mat(Mbad), 2)
+
+
+def _table(stdout):
+    lines = stdout.splitlines()
+    start = lines.index("Natural frequencies (Hz)")
+    rows = []
+    for ln in lines[start + 2:]:
+        if not ln.split() or not ln.split()[0].isdigit():
+            break
+        rows.append(ln.split())
+    return lines[start + 1].split(), rows
+
+
+def test_free_body_names_its_rigid_modes(cli):
+    """No support at all (issue 22, item 8): a plane body has exactly three rigid-body
+    motions (two translations, one rotation), reported as such, without NumPy's warnings;
+    the fixed-base rod is no reference for it, and the flexible modes still agree."""
+    res = cli(["-mpm_bc_bottom", "none", "-mpm_bc_left", "none", "-mpm_bc_right", "none"],
+              options_file="eigen-q9")
+    s = check_ok(res)
+    assert "Warning" not in res.stderr and "RuntimeWarning" not in res.stdout, res.stderr
+    assert s["rigid_modes"] == {"jacobi": [1, 2, 3], "slepc": [1, 2, 3]}
+    assert s["references"]["rod_hz"] is None
+    head, rows = _table(res.stdout)
+    assert "rod" not in head and len(rows) == 5
+    assert all(r[1:4] == ["rigid"] * 3 for r in rows[:3])
+    cross = s["cross_check"]
+    assert cross["mac"][:3] == [None] * 3 and None not in cross["mac"][3:]
+    fj, fs = (np.array(s["frequencies_hz"][k][3:]) for k in ("jacobi", "slepc"))
+    np.testing.assert_allclose(fj, fs, rtol=1e-8)
+    assert f"Results in {s['files']['summary'].rsplit('/', 1)[0]}: summary.json" in res.stdout
+
+
+def test_tall_column_prints_four_digits(cli):
+    """The paper's column scaled 500 times (50 m x 500 m): every frequency 500 times
+    smaller, printed with four significant digits (0.03378 Hz, not 0.03), the rod's too."""
+    from solver.analytic import rod_frequencies
+
+    res = cli(["-mpm_size", "50,500", "-mpm_figures", "0"], options_file="eigen-q9")
+    s = check_ok(res)
+    rod = rod_frequencies(E, RHO, 500.0, 5)
+    np.testing.assert_allclose(s["references"]["rod_hz"], rod, rtol=1e-12)
+    head, rows = _table(res.stdout)
+    assert head[1:5] == ["Jacobi", "SLEPc", "1D", "rod"]
+    col = {"Jacobi": 1, "SLEPc": 2, "rod": 3}
+    for k, row in enumerate(rows):
+        for name, value in (("Jacobi", s["frequencies_hz"]["jacobi"][k]),
+                            ("SLEPc", s["frequencies_hz"]["slepc"][k]), ("rod", rod[k])):
+            txt = row[col[name]]
+            digits = len(txt.replace(".", "").lstrip("0"))
+            assert digits >= 4 and float(txt) == pytest.approx(value, rel=5e-4), (name, txt)

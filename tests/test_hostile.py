@@ -218,3 +218,16 @@ def test_sigint_and_timed_checkpoints(tmp_path):
     proc.send_signal(signal.SIGINT)
     _, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 4 and "SIGINT" in stderr and stderr.count("\n") == 1
+
+
+@pytest.mark.parametrize("top", ["xy", "y"])
+def test_load_on_a_fixed_top_is_refused(cli, tmp_path, top):
+    """A surface load on a top held vertically (issue 22, item 7): the support would carry
+    it and U_p = 1 would read as consolidation; one line naming the option, nothing written."""
+    out = tmp_path / "out"
+    res = cli(["-mpm_bc_top", top, "-mpm_output", str(out)], options_file="consolidation-m1-q4")
+    assert res.returncode == 2
+    assert res.stderr.strip() == (f"solver: error: -mpm_bc_top {top}: a top fixed vertically "
+                                  "cannot carry -mpm_load 10000 (use -mpm_bc_top none or x, "
+                                  "or -mpm_load 0)")
+    assert not out.exists()
