@@ -364,3 +364,24 @@ def test_study_destination():
     assert study.destination(ap, ap.parse_args(["--out", "/tmp/y"])) == "/tmp/y"
     with pytest.raises(SystemExit):
         study.destination(ap, ap.parse_args(["--out", "/tmp/y", "--publish"]))
+
+
+ALL_SCRIPTS = sorted(p.name for p in (REPO / "scripts").iterdir()
+                     if p.is_file() and p.read_text().startswith("#!/usr/bin/env python3"))
+
+
+@pytest.mark.parametrize("name", ALL_SCRIPTS)
+def test_every_help_line_is_whole(name):
+    """Issue 22, item 9: --help's description is the docstring's whole first paragraph
+    (damping-study and permeability-map stopped mid-sentence) and no option's help ends
+    on a dangling word."""
+    res = subprocess.run([sys.executable, str(REPO / "scripts" / name), "--help"],
+                         cwd=REPO, env=clean_env(), capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 0, res.stderr
+    description = " ".join(res.stdout.split("\n\n")[1].split())
+    assert description[-1] in ".:)", (name, description)
+    for head, help_text in option_entries(res.stdout):
+        words = help_text.rstrip(" ,").split() or ["(none)"]
+        assert words[-1].lower() not in {"the", "and", "of", "a", "to", "with", "against",
+                                         "from", "or"}, (name, head, help_text)
