@@ -21,7 +21,8 @@ error); ``-mpm_debug`` adds the Python traceback. Options a scene file sets that
 analysis does not use, and its report times after ``-mpm_Tv_end``, are dropped with a note;
 given on the command line they are errors. A reader of stdout that goes away (``| head``)
 does not stop the run. ``-help`` (``--help``, ``-h``) prints the option table with the values
-in effect and runs nothing (exit 0).
+in effect and runs nothing (exit 0); PETSc's generic help (its own options: ``-log_view``,
+``-on_error_abort``, ...) comes before it only with ``-help petsc``.
 """
 
 from __future__ import annotations
@@ -32,6 +33,18 @@ import signal
 import sys
 import tempfile
 import traceback
+
+
+HELP = ("-help", "--help", "-h")
+
+
+def _petsc_argv(argv) -> list:
+    """The command line as PETSc's start sees it: without -help, unless it asks for PETSc's
+    own help too (``-help petsc``: PETSc sees a plain ``-help``)."""
+    ours = [i for i, a in enumerate(argv) if a in HELP]
+    asked = [i for i in ours if argv[i + 1:i + 2] == ["petsc"]]
+    drop = {i + 1 for i in asked} if asked else set(ours)
+    return [a for i, a in enumerate(argv) if i not in drop]
 
 
 def _options_files(argv):
@@ -109,8 +122,11 @@ def _main(argv, comm) -> int:
         import petsc4py
         import slepc4py
 
-        petsc4py.init(argv)
-        slepc4py.init(argv)
+        # -help is ours (the option table); PETSc's generic help only when asked for by
+        # name, -help petsc (printed by PETSc's start, before the table).
+        petsc_argv = _petsc_argv(argv)
+        petsc4py.init(petsc_argv)
+        slepc4py.init(petsc_argv)
     from petsc4py import PETSc
     from slepc4py import SLEPc  # noqa: F401  (initialised here, before the signals are set)
 
@@ -133,7 +149,7 @@ def _run(argv, origins, scene_analysis, comm) -> int:
     from .errors import InputError, InternalError, Interrupted, NumericalError, describe
 
     _survive_closed_stdout()
-    if {"-help", "--help", "-h"} & set(argv):
+    if set(HELP) & set(argv):
         return _help(options, origins, comm)
     debug = PETSc.Options().getString("mpm_debug", "false")
     debug = str(debug or "true").strip().lower() not in ("0", "false", "no", "off")
@@ -209,7 +225,9 @@ def _help(options, origins, comm) -> int:
     except InputError as exc:
         values, problem = options.given_text(), f"\nNote: {exc}; this command would stop there"
     PETSc.Sys.Print("Options of the MPM solver (SI units), with the values this command "
-                    "would use:\n" + options.table(values=values) + problem, comm=comm)
+                    "would use:\n" + options.table(values=values) + problem
+                    + "\nPETSc's and SLEPc's own options (-log_view, -eps_type, ...): "
+                    "-help petsc", comm=comm)
     return 0
 
 

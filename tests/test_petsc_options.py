@@ -71,6 +71,19 @@ def test_help_shows_values_in_effect_and_runs_nothing(tmp_path, flag):
     assert "Eigen analysis" not in out and "Natural frequencies" not in out
 
 
+def test_help_shows_our_table_first_and_petscs_only_when_asked(tmp_path):
+    """Issue 22, item 9: -help starts with the option table (PETSc's 60 lines of generic
+    help came first); -help petsc adds PETSc's, and the table still follows."""
+    code, out, err = _solver(["-help"], tmp_path)
+    assert code == 0, err[-3000:]
+    assert out.startswith("Options of the MPM solver") and "Petsc Release" not in out
+    assert out.rstrip().endswith("-help petsc")
+    code, out, err = _solver(["-help", "petsc"], tmp_path)
+    assert code == 0, err[-3000:]
+    assert out.index("Petsc Release") < out.index("Options of the MPM solver")
+    assert "| `-mpm_element` |" in out and os.listdir(tmp_path) == []
+
+
 def test_help_with_a_bad_value_still_shows_the_table(tmp_path):
     code, out, err = _solver(["--help", "-mpm_nu", "0.7"], tmp_path)
     assert code == 0, err[-3000:]
