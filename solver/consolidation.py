@@ -631,8 +631,9 @@ def _finish(s, reporting, summary, comm) -> int:
     files = reporting.files
     files["summary"] = summary_path
     if comm.getRank() == 0:
-        if reporting.series.entries:
-            files["fields_xdmf"] = reporting.series.xdmf
+        series = reporting.series.files()
+        if series:
+            files["fields_xdmf"], files["fields_h5"] = series[0], series[1:]
         files.update(_write_files(p, state.profiles, state.history, s.cv, s.c2, s.p0,
                                   s.monitor_height))
         files.update(_settlement_files(p, reporting.surface, state.settlement,

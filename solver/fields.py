@@ -28,6 +28,14 @@ class PointSeries:
     def entries(self) -> list:
         return self.writer.entries if self.writer else []
 
+    def files(self) -> list:
+        """Every file of the series: the index, then each time's HDF5 file (rank 0's; [] when
+        nothing was written, and on the other ranks)."""
+        if not self.entries:
+            return []
+        folder = os.path.dirname(self.xdmf)
+        return [self.xdmf] + [os.path.join(folder, str(e[1])) for e in self.entries]
+
     def last(self):
         """(step, t (s)) of the last time written, or None (rank 0; None elsewhere)."""
         if not self.entries:

@@ -121,6 +121,17 @@ def test_settlement_and_degree_against_terzaghi(m1):
     assert "Degree of consolidation" in res.stdout
 
 
+def test_files_names_every_file_written(m1):
+    """Issue 22, item 9: the summary's files name every file in the output folder, the
+    field series' HDF5 files included, and nothing that is not there."""
+    s, out, _ = m1
+    named = []
+    for value in s["files"].values():
+        named += value if isinstance(value, list) else [value]
+    assert sorted(named) == sorted(str(p) for p in out.iterdir())
+    assert len(s["files"]["fields_h5"]) == len(list(out.glob("points_*.h5"))) > 0
+
+
 def test_settlement_csv(m1):
     s, out, _ = m1
     assert s["files"]["settlement_csv"] == str(out / "settlement.csv")
