@@ -95,7 +95,9 @@ def references(p):
     return cv, c2, analytic.undrained_pressure(1.0, E_c, p.K_l, p.porosity)
 
 
-JACOBI_MAX_DOFS = 3000   # f1 by SLEPc above this: Jacobi's dense matrices grow as n^2
+# f1 by SLEPc above this: Jacobi's dense sweeps grow as n^3 (M3-Q4's 320 DOFs 1 s, Q4
+# 8 x 80's 1,280 DOFs 22 s, SLEPc 0.1 s); the paper's scenes up to M3-Q4 keep Jacobi's f1.
+JACOBI_MAX_DOFS = 400
 
 
 F1_MAX_DOFS = 20000   # f1 on a coarser grid above this: the shift-invert LU grows fast
@@ -636,7 +638,7 @@ def _finish(s, reporting, summary, comm) -> int:
             files["fields_xdmf"], files["fields_h5"] = series[0], series[1:]
         files.update(_write_files(p, state.profiles, state.history, s.cv, s.c2, s.p0,
                                   s.monitor_height))
-        files.update(_settlement_files(p, reporting.surface, state.settlement,
+        files.update(_settlement_files(p, reporting.surface, state.settlement, s.cv,
                                        reporting.ratio))
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
@@ -930,8 +932,8 @@ class _Surface:
                                  analytic.degree_of_consolidation(r[:, 1] * ratio)])
         with output.atomic(path) as tmp:
             np.savetxt(tmp, table, delimiter=",", comments="",
-                       header="t_s,Tv,settlement_m,U_settlement,U_pressure,U_terzaghi,"
-                              "U_consistent")
+                       header="t_s,Tv,settlement_m_downwards_positive,U_settlement,"
+                              "U_pressure,U_terzaghi,U_consistent")
         return path
 
 
@@ -954,11 +956,12 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
     hist = np.array(history) if history else np.zeros((0, 3))
     files["monitor_csv"] = os.path.join(p.output, "monitor.csv")
     with output.atomic(files["monitor_csv"]) as tmp:
-        np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q", comments="")
+        np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q_compression_positive",
+                   comments="")
     # Every point's pore pressure at every isochrone time: enough to redraw Figs 3-5.
     files["profiles_csv"] = os.path.join(p.output, "profiles.csv")
     with output.atomic(files["profiles_csv"]) as tmp, open(tmp, "w") as fh:
-        fh.write("Tv,t_s,x_m,y0_m,p_over_q,volume_m3\n")
+        fh.write("Tv,t_s,x_m,y0_m,p_over_q_compression_positive,volume_m3\n")
         for Tv, t, prof in profiles:         # one isochrone at a time: 48 bytes per point
             np.savetxt(fh, np.column_stack([np.full(len(prof), Tv), np.full(len(prof), t),
                                             prof[:, 3], prof[:, 0],
@@ -969,9 +972,10 @@ def _write_files(p, profiles, history, cv, c2, p0, monitor_height):
     return files
 
 
-def _settlement_files(p, surface, rows, ratio):
-    """settlement.csv and the figure of U against T_v from the history ``rows`` (t, Tv,
-    s, mean p); ``ratio`` = c2 / c_v; rank 0."""
+def _settlement_files(p, surface, rows, cv, ratio):
+    """settlement.csv, the figure of U against T_v and that of the settlement (mm) against
+    time in the scene's unit, from the history ``rows`` (t, Tv, s, mean p); ``cv`` (m2/s),
+    ``ratio`` = c2 / c_v; rank 0."""
     files = {"settlement_csv": surface.write_csv(p.output, rows, ratio)}
     if p.figures:
         fig = figures.consolidation_degree(
@@ -979,6 +983,13 @@ def _settlement_files(p, surface, rows, ratio):
             *surface.degrees(rows), ratio, p.Tv_end,
             f"Degree of consolidation, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
         files.update(output.save_figures(fig, p.output, "settlement", p.figure_format))
+    if p.figures and surface.valid:      # a load case: its settlement has references
+        r = np.array(rows, dtype=float).reshape(-1, 4)
+        fig = figures.settlement_time(
+            output.pyplot(), r[:, 0], r[:, 2], surface.s0, surface.s_inf, cv, ratio,
+            p.size[1], f"Surface settlement, {p.element.upper()} {p.cells[0]} x "
+                       f"{p.cells[1]} cells")
+        files.update(output.save_figures(fig, p.output, "settlement_time", p.figure_format))
     return files
 
 

@@ -107,7 +107,8 @@ def consolidation_degree(plt, Tv, U_settlement, U_pressure, ratio: float, Tv_end
     ax.plot(Tv, U_settlement, color="tab:blue", lw=1.0,
             label="MPM, from the surface settlement")
     ax.plot(Tv, U_pressure, color="tab:orange", lw=1.0, ls="--",
-            label="MPM, from the mean pore pressure")
+            label="MPM, from the mean pore pressure (its early swing: the undrained\n"
+                  "wave ringing in p after the sudden load, not settlement)")
     ax.set_xscale("log")
     ax.set_xlim(T[0], T[-1])
     ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
@@ -115,4 +116,46 @@ def consolidation_degree(plt, Tv, U_settlement, U_pressure, ratio: float, Tv_end
     ax.set_title(title)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="upper left")
+    return fig
+
+
+# The scene's own time unit: the run's end in it reads as an engineer would say it.
+TIME_UNITS = (("s", 1.0, 2 * 3600.0), ("h", 3600.0, 3 * 86400.0), ("days", 86400.0, np.inf))
+
+
+def time_unit(t_end: float) -> tuple:
+    """(name, seconds) of the unit of a run ending at ``t_end`` (s): seconds up to 2 h,
+    hours up to 3 days, days beyond."""
+    return next((name, sec) for name, sec, below in TIME_UNITS if t_end < below)
+
+
+def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, ratio: float,
+                    H: float, title: str):
+    """The surface settlement (mm, downwards positive) against time (log axis, in the unit
+    of :func:`time_unit`): the run's, classic Terzaghi's s_inf U(T_v) and the compressible
+    water's s0 + (s_inf - s0) U(T_v c2 / c_v), with the final settlement s_inf. ``t`` (s),
+    ``settlement``, ``s0``, ``s_inf`` (m), ``cv`` (m2/s), ``H`` (m)."""
+    t, settlement = np.asarray(t, dtype=float), np.asarray(settlement, dtype=float)
+    unit, sec = time_unit(t[-1] if len(t) else 1.0)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    keep = t > 0
+    start = t[keep].min() if np.any(keep) else 1e-4
+    tt = np.geomspace(start, max(t[-1] if len(t) else 1.0, start * 10), 400)
+    Tv = cv * tt / (H * H)
+    ax.plot(tt / sec, 1e3 * s_inf * analytic.degree_of_consolidation(Tv), color="k",
+            label="Terzaghi, classic", **CLASSIC)
+    ax.plot(tt / sec, 1e3 * (s0 + (s_inf - s0) * analytic.degree_of_consolidation(Tv * ratio)),
+            color="k", label="Terzaghi, compressible water", **COMPRESSIBLE)
+    ax.plot(t[keep] / sec, 1e3 * settlement[keep], color="tab:blue", lw=1.0,
+            label="MPM, surface settlement")
+    ax.axhline(1e3 * s_inf, color="0.5", lw=0.8, ls="--",
+               label=f"final settlement q H / E_c = {1e3 * s_inf:.4g} mm")
+    ax.set_xscale("log")
+    ax.set_xlim(tt[0] / sec, tt[-1] / sec)
+    ax.invert_yaxis()                    # settlement grows downwards, as the ground moves
+    ax.set_xlabel(f"time t ({unit})")
+    ax.set_ylabel("surface settlement (mm, downwards)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="lower left")
     return fig

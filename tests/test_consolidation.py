@@ -275,3 +275,52 @@ def test_output_every_writes_a_whole_series(cli, tmp_path):
     assert times == sorted(times) and times[-1] == pytest.approx(s["steps"] * s["dt"])
     assert len(list(out.glob("points_*.h5"))) == len(steps)
     assert np.all(np.isfinite(steps[-1][1]["pore_pressure"]))
+
+
+PAPER_SCENES = [("q4", "1,10", 2), ("q8", "1,10", 3), ("q9", "1,10", 3), ("q4", "2,20", 2),
+                ("q8", "2,20", 3), ("q9", "2,20", 3), ("q4", "4,40", 2)]
+
+
+def test_refined_grids_take_the_patch_and_keep_the_limit():
+    """Issue 22, item 12: the dense analysis of the whole grid stays for the paper's scenes
+    (their limits unchanged) and refined Q4 grids (5 x 50 and beyond: 14-18 s at 8 x 80
+    before) take the 4 x 10 patch; its limit is the whole grid's, computed here densely on
+    5 x 50 cells (the explicit drag's scheme of the paper's scenes)."""
+    from conftest import scene_options
+    from petsc4py import PETSc
+
+    from solver import assembly, timestep
+
+    drag = dict(drag="explicit", damping=0.5, fast_damping=0, mass_scaling="none")
+    for element, cells, ppc in PAPER_SCENES:
+        p = scene_options(element=element, cells=cells, ppc=ppc, **drag)
+        assert timestep.analysis_cells(p) == p.cells, (element, cells)
+    for cells in ("5,50", "6,60", "8,80", "20,200"):
+        p = scene_options(cells=cells, **drag)
+        assert timestep.analysis_cells(p) == (4, 10), cells
+    p = scene_options(cells="5,50", **drag)
+    scheme = assembly.step_scheme(p)
+    patch, _ = timestep.discrete_limit(PETSc.COMM_SELF, p, scheme)
+    whole = timestep._limit_on(p, scheme, p.cells, estimate=patch)
+    assert patch == pytest.approx(whole, rel=2e-4)
+
+
+def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():
+    """The fundamental frequency beyond JACOBI_MAX_DOFS comes from SLEPc (Jacobi's dense
+    sweeps took 22 s on 8 x 80 Q4 cells): the same f1 as Jacobi's on the same model, here
+    on 3 x 30 cells with the threshold lowered."""
+    from conftest import scene_options
+    from petsc4py import PETSc
+
+    from solver import consolidation
+
+    p = scene_options(cells="3,30")
+    jacobi_f1 = consolidation.fundamental_frequency(PETSc.COMM_SELF, p)
+    low = consolidation.JACOBI_MAX_DOFS
+    try:
+        consolidation.JACOBI_MAX_DOFS = 10
+        slepc_f1 = consolidation.fundamental_frequency(PETSc.COMM_SELF, p)
+    finally:
+        consolidation.JACOBI_MAX_DOFS = low
+    assert slepc_f1 == pytest.approx(jacobi_f1, rel=1e-9)
+    assert slepc_f1 == pytest.approx(16.89, rel=2e-3)      # the column's f1 (Table 3)

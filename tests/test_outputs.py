@@ -137,8 +137,8 @@ def test_settlement_csv(m1):
     assert s["files"]["settlement_csv"] == str(out / "settlement.csv")
     with open(out / "settlement.csv") as fh:
         rows = list(csv.reader(fh))
-    assert rows[0] == ["t_s", "Tv", "settlement_m", "U_settlement", "U_pressure",
-                       "U_terzaghi", "U_consistent"]
+    assert rows[0] == ["t_s", "Tv", "settlement_m_downwards_positive", "U_settlement",
+                       "U_pressure", "U_terzaghi", "U_consistent"]
     table = np.array(rows[1:], dtype=float)
     assert np.all(np.diff(table[:, 0]) > 0)
     assert np.allclose(table[:, 1], CV * table[:, 0] / H ** 2, rtol=1e-12)
