@@ -157,5 +157,5 @@ def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, rati
     ax.set_ylabel("surface settlement (mm, downwards)")
     ax.set_title(title)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="lower left")
+    ax.legend(fontsize=8, loc="upper right")
     return fig

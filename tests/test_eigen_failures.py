@@ -243,3 +243,29 @@ def test_tall_column_prints_four_digits(cli):
             txt = row[col[name]]
             digits = len(txt.replace(".", "").lstrip("0"))
             assert digits >= 4 and float(txt) == pytest.approx(value, rel=5e-4), (name, txt)
+
+
+def test_mode_figure_has_a_colour_bar_and_the_rod_only_where_it_applies(cli, monkeypatch):
+    """Issue 22, item 11: modes.png colours the grid by |u| over the mode's largest, with a
+    colour bar from 0 to 1; the rod's dashed shape is drawn on a fixed-base column only."""
+    from solver import eigen
+
+    figs = []
+    real = eigen.mode_figure
+
+    def keep(*args, **kwargs):
+        figs.append(real(*args, **kwargs))
+        return figs[-1]
+    monkeypatch.setattr(eigen, "mode_figure", keep)
+    check_ok(cli(["-mpm_nmodes", "3"], options_file="eigen-q9"))
+    check_ok(cli(["-mpm_nmodes", "4", "-mpm_bc_bottom", "none", "-mpm_bc_left", "none",
+                  "-mpm_bc_right", "none"], options_file="eigen-q9"))
+    fixed, free = figs
+    for fig, rods in ((fixed, 3), (free, 0)):
+        bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+        assert len(bars) == 1 and bars[0].get_ylabel() == "|u| / largest |u| of the mode"
+        assert bars[0].get_ylim() == (0.0, 1.0)
+        labels = [ln.get_label() for ax in fig.axes for ln in ax.get_lines()]
+        assert sum(lab.startswith("rod") for lab in labels) == rods
+    titles = [ax.get_title() for ax in free.axes]
+    assert titles.count("mode 1\nrigid") == 1 and any("Hz" in t for t in titles)

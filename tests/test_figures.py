@@ -90,3 +90,32 @@ def test_pressure_field_uses_a_perceptual_map_in_kpa():
     colorbar = [a for a in fig.axes if a not in axes][0]
     assert colorbar.get_ylabel() == "excess pore pressure (kPa)"
     plt.close(fig)
+
+
+@pytest.mark.parametrize("t_end, unit, seconds", [(3.9, "s", 1.0), (3.644e4, "h", 3600.0),
+                                                   (8e5, "days", 86400.0)])
+def test_settlement_time_in_the_scenes_own_unit(t_end, unit, seconds):
+    """Issue 22, item 11: settlement (mm, downwards) against time in s, h or days by the run's
+    length, log time axis; the references are s_inf U (classic) and s0 + (s_inf - s0) U of
+    the compressible water, against Terzaghi's U summed and integrated independently
+    (test_outputs.terzaghi_mean)."""
+    from test_outputs import terzaghi_mean
+
+    from solver.analytic import degree_of_consolidation
+
+    H, cv, ratio, s0, s_inf = 1.0, 1.0 / t_end, 0.97, 1e-5, 1e-3   # T_v = 1 at t_end
+    t = np.geomspace(t_end / 1e4, t_end, 50)
+    settled = s0 + (s_inf - s0) * degree_of_consolidation(cv * t * ratio / H ** 2)
+    fig = figures.settlement_time(output.pyplot(), t, settled, s0, s_inf, cv, ratio, H, "x")
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == f"time t ({unit})" and ax.get_xscale() == "log"
+    assert "mm" in ax.get_ylabel() and ax.yaxis_inverted()
+    lines = {ln.get_label(): ln for ln in ax.get_lines()}
+    mpm = lines["MPM, surface settlement"]
+    np.testing.assert_allclose(mpm.get_xdata(), t / seconds, rtol=1e-12)
+    np.testing.assert_allclose(mpm.get_ydata(), 1e3 * settled, rtol=1e-12)
+    classic = lines["Terzaghi, classic"]
+    T = cv * classic.get_xdata() * seconds / H ** 2
+    want = 1e3 * s_inf * np.array([1 - terzaghi_mean(T_i) for T_i in T[::40]])
+    np.testing.assert_allclose(classic.get_ydata()[::40], want, atol=1e-9)
+    output.pyplot().close(fig)
