@@ -224,10 +224,12 @@ def _help(options, origins, comm) -> int:
         values = checkpoint.read_options(origins)
     except InputError as exc:
         values, problem = options.given_text(), f"\nNote: {exc}; this command would stop there"
-    PETSc.Sys.Print("Options of the MPM solver (SI units), with the values this command "
-                    "would use:\n" + options.table(values=values) + problem
-                    + "\nPETSc's and SLEPc's own options (-log_view, -eps_type, ...): "
-                    "-help petsc", comm=comm)
+    text = ("Options of the MPM solver (SI units), with the values this command would use:\n"
+            + options.table(values=values) + problem
+            + "\nPETSc's and SLEPc's own options (-log_view, -eps_type, ...): -help petsc")
+    # Line by line: PETSc formats one print in an 8 KiB buffer, and the table is longer.
+    for line in text.splitlines():
+        PETSc.Sys.Print(line, comm=comm)
     return 0
 
 
