@@ -641,6 +641,7 @@ def _finish(s, reporting, summary, comm) -> int:
         files.update(_settlement_files(p, reporting.surface, state.settlement, s.cv,
                                        reporting.ratio))
         output.write_json(summary_path, dict(summary, files=files))
+    PETSc.Sys.Print(output.results_line(p.output, files), comm=comm)
     PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
                     comm=comm)
     return 0

@@ -328,9 +328,7 @@ def _analysis(p, comm, ctx, owned) -> dict:
     summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
                                       freq.get("jacobi", freq.get("slepc")),
                                       refs["rod_hz"], scale, summary)
-    PETSc.Sys.Print(f"Results in {p.output}: " + ", ".join(
-        os.path.relpath(f, p.output) if os.path.dirname(f) == os.path.normpath(p.output)
-        else f for f in summary["files"].values()), comm=comm)
+    PETSc.Sys.Print(output.results_line(p.output, summary["files"]), comm=comm)
     return summary
 
 

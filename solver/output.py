@@ -334,3 +334,22 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def results_line(folder, files: dict) -> str:
+    """The line that says where a run's results are: ``Results in FOLDER: a, b, ...``, the
+    names of ``files`` (the summary's ``files``: paths, or lists of paths) relative to the
+    folder, a list as its count and first name."""
+    def name(path):
+        rel = os.path.relpath(path, folder)
+        return path if rel.startswith("..") else rel
+
+    names = []
+    for value in files.values():
+        if isinstance(value, (list, tuple)):
+            if value:
+                names.append(f"{len(value)} files {name(value[0])}, ..." if len(value) > 1
+                             else name(value[0]))
+        else:
+            names.append(name(value))
+    return f"Results in {folder}: " + ", ".join(names)

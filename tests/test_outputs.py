@@ -124,7 +124,10 @@ def test_settlement_and_degree_against_terzaghi(m1):
 def test_files_names_every_file_written(m1):
     """Issue 22, item 9: the summary's files name every file in the output folder, the
     field series' HDF5 files included, and nothing that is not there."""
-    s, out, _ = m1
+    s, out, res = m1
+    line = next(ln for ln in res.stdout.splitlines() if ln.startswith("Results in "))
+    assert line.startswith(f"Results in {out}: ") and "points.xdmf" in line
+    assert f"{len(s['files']['fields_h5'])} files points_" in line
     named = []
     for value in s["files"].values():
         named += value if isinstance(value, list) else [value]
