@@ -14,6 +14,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import shapes
+from .soil import elasticity
 
 
 @dataclass
@@ -52,43 +53,6 @@ def lumping_weights(N, kind: str) -> np.ndarray:
         return N
     N2 = N * N
     return N2 / N2.sum(axis=1, keepdims=True)
-
-
-def default_lumping(element: str) -> str:
-    return "hrz" if element == "q8" else "rowsum"
-
-
-def auto_scheme(element: str) -> dict:
-    """What ``auto`` means for each discretisation choice of the step on a cell type."""
-    return {"lumping": default_lumping(element),
-            "kinematics": "small",
-            "pressure_projection": "nodal" if element == "q4" else "none",
-            "liquid_basis": "blended" if element == "q8" else "element"}
-
-
-def step_scheme(p) -> dict:
-    """The explicit step's discretisation choices, with ``auto`` resolved per element: the
-    most accurate measured (docs/studies.md, "Quadratic cells"); the drag treatment and the
-    mass scaling factor S (a number, ``auto`` resolved by :func:`solver.inertia.scaling`)."""
-    auto = auto_scheme(p.element)
-    scheme = {k: auto[k] if getattr(p, k) == "auto" else getattr(p, k) for k in auto}
-    from . import inertia   # it needs the wave speeds, which need this module
-
-    scheme["drag"] = p.drag
-    scheme["mass_scaling"] = inertia.scaling(p)
-    return scheme
-
-
-def elasticity(E: float, nu: float) -> np.ndarray:
-    """Plane-strain elasticity matrix D (Pa) for stresses (xx, yy, xy) and engineering strains."""
-    lam = E * nu / ((1 + nu) * (1 - 2 * nu))
-    G = E / (2 * (1 + nu))
-    return np.array([[lam + 2 * G, lam, 0.0], [lam, lam + 2 * G, 0.0], [0.0, 0.0, G]])
-
-
-def constrained_modulus(E: float, nu: float) -> float:
-    """E_c = E (1 - nu) / ((1 + nu) (1 - 2 nu)) (Pa): the modulus of one-dimensional compression."""
-    return E * (1 - nu) / ((1 + nu) * (1 - 2 * nu))
 
 
 def strain_matrix(dNdx) -> np.ndarray:

@@ -17,7 +17,9 @@ run was stored (no ``run`` member) are read as before: every option given again.
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import os
 import secrets
 import time
@@ -33,6 +35,40 @@ FREE_OPTIONS = {"output", "summary", "figures", "figure_format", "debug", "progr
                 "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
                 "stability_analysis", "overwrite"}
 VERSION = 2    # 2: reference positions x0 (2 components) in place of y0
+
+
+@dataclasses.dataclass
+class RunState:
+    """The state of a run besides its points: exactly what a checkpoint stores
+    (:meth:`to_dict`, the ``state`` of :func:`write`) and a restart loads
+    (:meth:`from_dict`). ``step`` is the last step whose points and records agree."""
+
+    step: int = 0
+    dt: float = math.nan
+    mass_scaling: float = 1.0
+    history: list = dataclasses.field(default_factory=list)     # (t, Tv, p/q at the monitor)
+    reports: list = dataclasses.field(default_factory=list)     # report() at the report times
+    profiles: list = dataclasses.field(default_factory=list)    # (Tv, t, profile()), rank 0
+    series: list = dataclasses.field(default_factory=list)      # the field series' entries
+    settlement: list = dataclasses.field(default_factory=list)  # (t, Tv, s (m), mean p (Pa))
+    degree: list = dataclasses.field(default_factory=list)      # degree of consolidation
+
+    def to_dict(self) -> dict:
+        """The state as a checkpoint stores it (JSON after :func:`output._jsonable`)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def from_dict(cls, st: dict, mass_scaling: float) -> "RunState":
+        """The state of a checkpoint's ``st``; ``mass_scaling`` where it holds none (auto
+        depends on the earliest report time, which a restart may change: a restart keeps
+        the factor the run started with)."""
+        return cls(step=st["step"], dt=st["dt"],
+                   mass_scaling=st.get("mass_scaling", mass_scaling),
+                   history=[tuple(h) for h in st["history"]], reports=st["reports"],
+                   profiles=[(a, b, np.array(c)) for a, b, c in st["profiles"]],
+                   series=st["series"], settlement=[tuple(r) for r in st.get("settlement", [])],
+                   degree=st.get("degree", []))
+
 
 
 def signature(p) -> str:
@@ -111,9 +147,9 @@ def read_options(origins, db=None):
     return p
 
 
-def write(path, comm, points, state: dict, p, run: dict):
-    """Gather the points on rank 0 and write ``path`` (collective); ``run``: {"id": the
-    run id, "options": :func:`recorded`}."""
+def write(path, comm, points, state: dict, sig: str, run: dict):
+    """Gather the points on rank 0 and write ``path`` (collective); ``sig`` the run's
+    :func:`signature`, ``run``: {"id": the run id, "options": :func:`recorded`}."""
     names = list(points.layout)
     local = np.column_stack([points.get(n).reshape(points.n_local, -1) for n in names]) \
         if points.n_local else np.zeros((0, sum(points.layout.values())))
@@ -124,14 +160,15 @@ def write(path, comm, points, state: dict, p, run: dict):
     with output.atomic(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez(fh, version=VERSION, fields=data,
-                     layout=json.dumps(points.layout), signature=signature(p),
+                     layout=json.dumps(points.layout), signature=sig,
                      state=json.dumps(output._jsonable(state)),
                      run=json.dumps(output._jsonable(run)))
 
 
-def read(path, p):
+def read(path, mine: str):
     """Load a checkpoint: (fields, layout, state, run id or None for an older checkpoint);
-    raise InputError if it is missing, damaged or of another scene."""
+    raise InputError if it is missing, damaged or of another scene than the one whose
+    :func:`signature` is ``mine``."""
     if not os.path.isfile(path):
         raise InputError(f"-mpm_restart {path}: no such file")
     try:
@@ -148,8 +185,8 @@ def read(path, p):
     if version != VERSION:
         raise InputError(f"-mpm_restart {path}: checkpoint version {version}, "
                          f"this solver reads {VERSION}")
-    if sig != signature(p):
-        mine, theirs = json.loads(signature(p)), json.loads(sig)
+    if sig != mine:
+        mine, theirs = json.loads(mine), json.loads(sig)
         # Compared as JSON: NaN (an unset -mpm_dt) differs from itself as a float.
         diff = sorted(k for k in set(mine) | set(theirs)
                       if json.dumps(mine.get(k)) != json.dumps(theirs.get(k)))
@@ -160,27 +197,28 @@ def read(path, p):
     return fields, layout, state, run.get("id")
 
 
-def check_folder(p, run_id, comm) -> None:
+def check_folder(folder, summary_path, restart, run_id, comm) -> None:
     """InputError on every rank, before anything is computed, when the results of another
-    run than ``run_id`` (a restart's) lie where this one writes: the summary, the field
-    series (points.xdmf) or a checkpoint other than -mpm_restart's, each marked with the id
-    of the run that wrote it (none: an older or another program's result, another run),
-    unless -mpm_overwrite. ``run_id`` None (an older checkpoint, which does not say which
-    results are its own): not checked, as before."""
+    run than ``run_id`` (the one the checkpoint ``restart`` continues) lie where this one
+    writes (``folder``, ``summary_path``): the summary, the field series (points.xdmf) or a
+    checkpoint other than ``restart``, each marked with the id of the run that wrote it
+    (none: an older or another program's result, another run). ``run_id`` None (an older
+    checkpoint, which does not say which results are its own): not checked, as before.
+    The caller skips the check under -mpm_overwrite."""
     problem = None
-    if comm.getRank() == 0 and not p.overwrite and run_id is not None:
-        ckpt = os.path.join(p.output, "checkpoint.npz")
-        for path, read in ((p.summary or os.path.join(p.output, "summary.json"), _summary_id),
-                           (os.path.join(p.output, "points.xdmf"), output.series_run_id),
+    if comm.getRank() == 0 and run_id is not None:
+        ckpt = os.path.join(folder, "checkpoint.npz")
+        for path, read in ((summary_path, _summary_id),
+                           (os.path.join(folder, "points.xdmf"), output.series_run_id),
                            (ckpt, _checkpoint_id)):
-            if not os.path.isfile(path) or (path == ckpt and os.path.isfile(p.restart)
-                                            and os.path.samefile(path, p.restart)):
+            if not os.path.isfile(path) or (path == ckpt and os.path.isfile(restart)
+                                            and os.path.samefile(path, restart)):
                 continue
             other = read(path)
             if other != run_id:
-                problem = (f"-mpm_output {p.output}: {os.path.basename(path)} holds the "
+                problem = (f"-mpm_output {folder}: {os.path.basename(path)} holds the "
                            f"results of another run ({other or 'without a run id'}; "
-                           f"-mpm_restart {p.restart} continues run {run_id}): give another "
+                           f"-mpm_restart {restart} continues run {run_id}): give another "
                            "-mpm_output, or -mpm_overwrite to replace them")
                 break
     problem = comm.tompi4py().bcast(problem, root=0)

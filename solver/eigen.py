@@ -9,18 +9,19 @@ plain FE model of the same mesh (points at Gauss points).
 from __future__ import annotations
 
 import os
-import time
 from contextlib import ExitStack
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 from petsc4py import PETSc
-from slepc4py import SLEPc
 
-from . import analytic, assembly, jacobi, memory, output, provenance, signals
-from .errors import (InputError, InternalError, Interrupted, NumericalError, agree, describe,
-                     entry)
-from .scene import boundary_conditions, build, destroy, mixture_density
+from . import analytic, jacobi, memory, output, provenance, signals
+from .errors import InputError, InternalError, Interrupted, NumericalError, agree, entry
+from .failure import RunFailure
+from .frequency import frequencies, slepc_solve
+from .plan import Outputs
+from .scene import Body, build, destroy
+from .soil import Soil
 
 # Table 3 of the paper (Hz): the MP models of a 1 x 10 grid over the 0.1 m x 1 m column.
 PAPER_TABLE3 = {"q4": [16.92, 51.27, 87.24, 126.03, 168.95],
@@ -48,24 +49,25 @@ def _points_needed(element) -> int:
     return int(np.ceil(np.sqrt(NODES_PER_CELL[element])))
 
 
-def mass_diagnosis(p, exc) -> str:
-    """One line naming why the consistent mass of scene ``p`` is not positive definite."""
+def mass_diagnosis(body, exc) -> str:
+    """One line naming why the consistent mass of ``body`` is not positive definite."""
     what = {"singular": f"singular (numerical rank {exc.rank} of {exc.n})",
             "indefinite": f"indefinite ({exc.negative} negative eigenvalues of {exc.n})",
             "diagonal": f"zero on {exc.n - exc.rank} diagonal entries"}[exc.kind]
-    nen, need = NODES_PER_CELL[p.element], _points_needed(p.element)
-    if p.ppc < need:
-        return (f"Jacobi: {p.element.upper()} with {_points(p.ppc)} (fewer "
+    element, ppc = body.element, body.ppc
+    nen, need = NODES_PER_CELL[element], _points_needed(element)
+    if ppc < need:
+        return (f"Jacobi: {element.upper()} with {_points(ppc)} (fewer "
                 f"than its {nen} nodes): the consistent mass is {what}; use -mpm_ppc {need} "
                 "or more")
-    return (f"Jacobi: the consistent mass of {p.element.upper()} with {_points(p.ppc)} is "
+    return (f"Jacobi: the consistent mass of {element.upper()} with {_points(ppc)} is "
             f"{what}; check -mpm_ppc and -mpm_points")
 
 
-def rod_applies(p) -> bool:
-    """Whether the analytic 1D rod (fixed at the base, free at the top) is this scene's
-    reference: rollers on both sides, the base fixed vertically, the top free."""
-    bcs = boundary_conditions(p)
+def rod_applies(body) -> bool:
+    """Whether the analytic 1D rod (fixed at the base, free at the top) is the reference of
+    ``body``: rollers on both sides, the base fixed vertically, the top free."""
+    bcs = body.supports
     return (bcs["left"] == bcs["right"] == "x" and "y" in bcs["bottom"]
             and bcs["top"] == "none")
 
@@ -86,99 +88,44 @@ def hz(value, width: int = 0) -> str:
     return f"{v:{width}.{decimals}f}"
 
 
-def zero_energy_diagnosis(p, freq, rod):
+def zero_energy_diagnosis(body, nmodes, freq, rod):
     """None, or a warning about modes at (about) 0 Hz; an error (NumericalError) when they
     are hourglass modes of too few points per cell, whose frequencies would be wrong."""
     zero = max((int(np.count_nonzero(rigid(f, rod[0]))) for f in freq.values()), default=0)
     if not zero:
         return None
-    if p.ppc < _points_needed(p.element):
+    if body.ppc < _points_needed(body.element):
         raise NumericalError(
-            f"{p.element.upper()} with {_points(p.ppc)}: {zero} zero-energy "
-            f"(hourglass) modes at 0 Hz among the lowest {p.nmodes}: the stiffness is "
-            f"singular; use -mpm_ppc {_points_needed(p.element)} or more")
-    return (f"{zero} of the lowest {p.nmodes} modes at about 0 Hz: rigid-body modes, motion "
+            f"{body.element.upper()} with {_points(body.ppc)}: {zero} zero-energy "
+            f"(hourglass) modes at 0 Hz among the lowest {nmodes}: the stiffness is "
+            f"singular; use -mpm_ppc {_points_needed(body.element)} or more")
+    return (f"{zero} of the lowest {nmodes} modes at about 0 Hz: rigid-body modes, motion "
             "that the boundary conditions (-mpm_bc_*) leave free (listed as \"rigid\")")
 
 
-# The scene (grid, points, boundary conditions, densities) is built by solver.scene.
 
+@dataclass(frozen=True)
+class EigenPlan:
+    """An eigen analysis, as typed values: the ``body`` (scene.Body) made of ``soil``
+    (soil.Soil), the ``nmodes`` lowest modes by ``solvers`` (jacobi, slepc), Jacobi's
+    tolerance ``jacobi_tol`` and ``jacobi_max_sweeps``, where the results go
+    (plan.Outputs) and the options as the provenance records them."""
 
-class SlepcResult(NamedTuple):
-    """What :func:`slepc_solve` found, and with which solver."""
-    values: np.ndarray     # eigenvalues (rad2/s2), ascending ('largest': descending)
-    vectors: list          # their eigenvectors (PETSc Vecs)
-    seconds: float         # wall time of set-up and solve
-    eps_type: str          # the EPS type that solved (e.g. "krylovschur", "lapack")
-    st_type: str           # its spectral transformation (e.g. "sinvert", "shift")
+    body: Body
+    soil: Soil
+    nmodes: int
+    solvers: tuple
+    jacobi_tol: float
+    jacobi_max_sweeps: int
+    outputs: Outputs
+    provenance: dict
 
-    @property
-    def label(self) -> str:
-        """The solver as printed: "SLEPc krylovschur, ST sinvert"."""
-        return f"SLEPc {self.eps_type}, ST {self.st_type}"
-
-
-def slepc_solve(K, M, nmodes: int, which: str = "smallest", prefix: str = ""):
-    """Eigenpairs of K x = lambda M x by SLEPc (GHEP, Krylov-Schur by default).
-
-    ``which='smallest'``: shift-and-invert about 0 with a MUMPS LU (works in parallel);
-    ``'largest'``: plain Krylov-Schur for the largest eigenvalues. Any option
-    ``-{prefix}eps_*``/``-{prefix}st_*`` overrides these defaults: the prefix keeps a
-    secondary solve (the FE reference's ``fe_``) apart from the main one's ``-eps_*``.
-    Returns a :class:`SlepcResult` with the solver types actually used.
-    """
-    t0 = time.perf_counter()
-    eps = SLEPc.EPS().create(K.getComm())
-    vectors = []
-    try:
-        _configure(eps, K, M, nmodes, which, prefix)
-        eps.solve()
-        nconv = eps.getConverged()
-        if nconv < nmodes:
-            raise NumericalError(f"SLEPc converged {nconv} of {nmodes} eigenpairs "
-                                 f"(reason {eps.getConvergedReason()})")
-        values = []
-        for k in range(nconv):
-            vectors.append(K.createVecRight())
-            values.append(eps.getEigenpair(k, vectors[-1]).real)
-        order = np.argsort(values)
-        if which == "largest":
-            order = order[::-1]
-        keep = order[:nmodes]
-        result = SlepcResult(np.array(values)[keep], [vectors[k] for k in keep],
-                             time.perf_counter() - t0, eps.getType(), eps.getST().getType())
-        for k in order[nmodes:]:
-            vectors[k].destroy()
-        return result
-    except BaseException:
-        for v in vectors:
-            v.destroy()
-        raise
-    finally:
-        eps.destroy()
-
-
-def _configure(eps, K, M, nmodes, which, prefix):
-    """The defaults of :func:`slepc_solve`, then the options database's word."""
-    eps.setOptionsPrefix(prefix)
-    eps.setOperators(K, M)
-    eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-    eps.setType(SLEPc.EPS.Type.KRYLOVSCHUR)
-    eps.setDimensions(nev=nmodes)
-    eps.setTolerances(tol=1e-13, max_it=1000)
-    if which == "smallest":
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        eps.setTarget(0.0)
-        st = eps.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        ksp = st.getKSP()
-        ksp.setType(PETSc.KSP.Type.PREONLY)
-        pc = ksp.getPC()
-        pc.setType(PETSc.PC.Type.LU)
-        pc.setFactorSolverType("mumps")
-    else:
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
-    eps.setFromOptions()
+    @classmethod
+    def from_options(cls, p) -> "EigenPlan":
+        return cls(Body.from_options(p), Soil.from_options(p), p.nmodes, tuple(p.eigen_solver),
+                   p.jacobi_tol, p.jacobi_max_sweeps,
+                   Outputs(p.output, p.summary or os.path.join(p.output, "summary.json"),
+                           p.figures, p.figure_format), provenance.options(p))
 
 
 def mac(a, b) -> float:
@@ -186,18 +133,13 @@ def mac(a, b) -> float:
     return a.dot(b) ** 2 / (a.dot(a) * b.dot(b))
 
 
-def frequencies(eigenvalues) -> np.ndarray:
-    """omega^2 (rad2/s2) -> f (Hz)."""
-    return np.sqrt(np.maximum(np.asarray(eigenvalues), 0.0)) / (2 * np.pi)
-
-
-def is_paper_scene(p) -> bool:
-    return (tuple(p.cells) == (1, 10) and np.allclose(p.size, (0.1, 1.0))
-            and p.E == 10e6 and p.nu == 0.0 and p.points == "uniform"
-            and p.ppc == (2 if p.element == "q4" else 3)
-            and abs(mixture_density(p) - 2190.0) < 1e-9
-            and boundary_conditions(p) == {"left": "x", "right": "x", "bottom": "xy",
-                                           "top": "none"})
+def is_paper_scene(body, soil) -> bool:
+    """Whether ``body`` of ``soil`` is the paper's column (its Table 3 applies)."""
+    return (tuple(body.cells) == (1, 10) and np.allclose(body.size, (0.1, 1.0))
+            and soil.E == 10e6 and soil.nu == 0.0 and body.placement == "uniform"
+            and body.ppc == (2 if body.element == "q4" else 3)
+            and abs(soil.density - 2190.0) < 1e-9
+            and body.supports == {"left": "x", "right": "x", "bottom": "xy", "top": "none"})
 
 
 def run(p, comm) -> dict:
@@ -209,103 +151,103 @@ def run(p, comm) -> dict:
     the ranks agree on it (always on one rank; in parallel while the results are written,
     where rank 0 works alone). A failure elsewhere on some ranks of a parallel run reaches
     the caller as it is (to abort MPI: the others wait in a collective)."""
-    ctx = {"phase": "analysis", "summary": None, "freq": {}}
+    plan = EigenPlan.from_options(p)
+    ctx = RunFailure(comm, "eigen")
+    ctx.begin(plan.outputs.summary, None, plan.provenance)
+    ctx.freq = {}
     failure = None
     signals.stage("the eigen analysis")
     try:
-        summary = _analyse(p, comm, ctx)
+        summary = _analyse(plan, comm, ctx)
     except InputError:
         raise
     except Interrupted as exc:         # a signal: the summary says what was computed
-        exc.args = (str(exc) + _write_failure(p, comm, ctx, entry(str(exc), 4, exc.stage)),)
+        exc.args = (str(exc) + _failed(comm, ctx, str(exc), 4, exc.stage),)
         raise
     except NumericalError as exc:      # every rank raises it alike
-        _write_failure(p, comm, ctx, entry(str(exc), exc.exit_code))
+        _failed(comm, ctx, str(exc), exc.exit_code)
         raise
     except PETSc.Error as exc:         # a solver of PETSc or SLEPc failed: numerical too
-        _write_failure(p, comm, ctx, entry(f"PETSc error {exc.ierr}: {exc}", 3))
+        _failed(comm, ctx, f"PETSc error {exc.ierr}: {exc}", 3)
         raise
     except Exception as exc:   # noqa: BLE001  (what the solver did not foresee)
         failure = exc
-    if ctx["phase"] == "writing" or comm.getSize() == 1:
+    if ctx.phase == "writing" or comm.getSize() == 1:
         message = agree(comm, failure)       # every rank gets here, failed or not
         if message is None:
             return summary
-        said = _write_failure(p, comm, ctx, entry(f"internal error: {message}", 5))
+        said = _failed(comm, ctx, f"internal error: {message}", 5)
         raise InternalError(f"internal error: {message}{said}") from failure
-    _write_failure(p, comm, ctx, entry(f"internal error: {describe(failure)}", 5))
+    ctx.record(comm, None, failure)
     raise failure
 
 
-def _write_failure(p, comm, ctx, error) -> str:
-    """Rank 0 writes the summary of a failed run: what was computed, ``"completed": false``
-    and ``error``; returns "; summary PATH" for the error line (or why it was not written)."""
-    if comm.getRank() != 0 or ctx["summary"] is None and error["kind"] == "numerical":
+def _failed(comm, ctx, text, code, stage="") -> str:
+    """The summary of a failed analysis, through the failure handler both analyses share
+    (rank 0): what was computed, ``"completed": false`` and the error; returns
+    "; summary PATH" for the error line (or why it was not written). A numerical failure
+    before the assembly has nothing to write."""
+    if comm.getRank() != 0 or ctx.summary is None and code == 3:
         return ""
-    path = p.summary or os.path.join(p.output, "summary.json")
-    summary = dict(ctx["summary"] or {"analysis": "eigen"})
-    if ctx["freq"]:
-        summary["frequencies_hz"] = dict(ctx["freq"])
-    summary.update(completed=False, error=error, files={"summary": path})
-    try:
-        output.write_json(path, summary)
-    except Exception as err:   # noqa: BLE001  (the disk may be what failed)
-        return f"; no summary ({describe(err)})"
-    return f"; summary {path}"
+    extra = {"frequencies_hz": dict(ctx.freq)} if ctx.freq else {}
+    return "; " + ctx.write_summary(text, code, stage, extra=extra)
 
 
-def _analyse(p, comm, ctx) -> dict:
+def _analyse(plan, comm, ctx) -> dict:
     """The analysis (see :func:`run`), which destroys the PETSc objects it made whether it
     finishes or fails (the failure handler needs none of them)."""
     with ExitStack() as owned:
-        return _analysis(p, comm, ctx, owned)
+        return _analysis(plan, comm, ctx, owned)
 
 
-def _analysis(p, comm, ctx, owned) -> dict:
+def _analysis(plan, comm, ctx, owned) -> dict:
     """The analysis itself; ``ctx`` follows it for the failure handler, and what it makes
     goes on ``owned`` (an ExitStack: destroyed last made, first)."""
-    memory.check(p, comm)
+    body, soil, nmodes = plan.body, plan.soil, plan.nmodes
+    memory.check(body, "jacobi" in plan.solvers)
     with PETSc.Log.Stage("Assembly"):
-        made = build(comm, p)
+        made = build(comm, body, soil)
     owned.callback(destroy, *reversed(made))
     grid, points, K, M, free = made
     n = K.getSize()[0]
     if n == 0:
         raise InputError("-mpm_bc_*: every DOF is fixed; nothing left to vibrate")
-    if p.nmodes > n:
-        raise InputError(f"-mpm_nmodes {p.nmodes}: the model has only {n} free DOFs")
-    PETSc.Sys.Print(f"Eigen analysis: {p.element.upper()}, {p.cells[0]} x {p.cells[1]} cells, "
+    if nmodes > n:
+        raise InputError(f"-mpm_nmodes {nmodes}: the model has only {n} free DOFs")
+    PETSc.Sys.Print(f"Eigen analysis: {body.element.upper()}, {body.cells[0]} x "
+                    f"{body.cells[1]} cells, "
                     f"{points.n_global} material points, {n} free DOFs, {comm.getSize()} rank(s)",
                     comm=comm)
 
     freq, vecs, summary = {}, {}, {"analysis": "eigen", "ranks": comm.getSize(), "ndof": n,
-                                   "element": p.element, "cells": list(p.cells),
-                                   "size_m": list(p.size), "ppc": p.ppc, "points": p.points,
-                                   "n_points": points.n_global,
-                                   "density_kg_m3": mixture_density(p),
-                                   "provenance": provenance.collect(comm, p)}
-    ctx["summary"], ctx["freq"] = summary, freq
-    E_c = assembly.constrained_modulus(p.E, p.nu)
-    rod = analytic.rod_frequencies(E_c, mixture_density(p), p.size[1], p.nmodes)
+                                   "element": body.element, "cells": list(body.cells),
+                                   "size_m": list(body.size), "ppc": body.ppc,
+                                   "points": body.placement, "n_points": points.n_global,
+                                   "density_kg_m3": soil.density,
+                                   "provenance": provenance.collect(comm, plan.provenance)}
+    ctx.summary, ctx.freq = summary, freq
+    rod = analytic.rod_frequencies(soil.constrained_modulus, soil.density, body.height,
+                                   nmodes)
     warnings = []          # Jacobi's, then the zero-energy modes'
-    if "jacobi" in p.eigen_solver:
+    if "jacobi" in plan.solvers:
         freq["jacobi"], vecs["jacobi"], summary["jacobi"], warnings = _jacobi(
-            p, comm, K, M, rod, owned)
+            plan, comm, K, M, rod, owned)
     elif n <= MASS_CHECK_MAX_DOFS:
         # SLEPc's B-inner product needs M positive definite as much as Jacobi does: with a
         # singular M it may return modes at 0 Hz that are no eigenpairs (1 point per Q4 cell).
         try:
             jacobi.check_mass(M)
         except jacobi.MassError as exc:
-            raise NumericalError(mass_diagnosis(p, exc).replace("Jacobi: ", "", 1)) from None
-    if "slepc" in p.eigen_solver:
+            raise NumericalError(mass_diagnosis(body, exc).replace("Jacobi: ", "", 1)) \
+                from None
+    if "slepc" in plan.solvers:
         with PETSc.Log.Stage("SLEPc"):
-            res = slepc_solve(K, M, p.nmodes)
+            res = slepc_solve(K, M, nmodes)
         owned.callback(destroy, *res.vectors)
         freq["slepc"], vecs["slepc"] = frequencies(res.values), res.vectors
         summary["slepc"] = {"seconds": res.seconds, "type": res.eps_type, "st": res.st_type}
         PETSc.Sys.Print(f"{res.label}: {res.seconds:.3f} s", comm=comm)
-    zero = zero_energy_diagnosis(p, freq, rod)
+    zero = zero_energy_diagnosis(body, nmodes, freq, rod)
     if zero:
         warnings.append(zero)
     for text in warnings:
@@ -319,16 +261,16 @@ def _analysis(p, comm, ctx, owned) -> dict:
     if len(freq) == 2:
         summary["cross_check"] = _cross_check(freq, vecs, scale)
 
-    refs = _references(p, comm, rod, owned)
+    refs = _references(plan, comm, rod, owned)
     summary["references"] = refs
     _print_table(comm, freq, refs, summary.get("cross_check"), scale)
 
     summary["completed"] = True
-    ctx["phase"] = "writing"     # the last collectives come first in it: ranks can agree
-    summary["files"] = _write_results(p, grid, free, vecs.get("jacobi") or vecs["slepc"],
+    ctx.phase = "writing"     # the last collectives come first in it: ranks can agree
+    summary["files"] = _write_results(plan, grid, free, vecs.get("jacobi") or vecs["slepc"],
                                       freq.get("jacobi", freq.get("slepc")),
                                       refs["rod_hz"], scale, summary)
-    PETSc.Sys.Print(output.results_line(p.output, summary["files"]), comm=comm)
+    PETSc.Sys.Print(output.results_line(plan.outputs.folder, summary["files"]), comm=comm)
     return summary
 
 
@@ -344,51 +286,53 @@ def _cross_check(freq, vecs, scale) -> dict:
     return {"relative_eigenvalue_difference": rel, "mac": macs}
 
 
-def _jacobi(p, comm, K, M, rod, owned) -> tuple:
+def _jacobi(plan, comm, K, M, rod, owned) -> tuple:
     """The Jacobi solve of :func:`_analysis` (its vectors go on ``owned``), printed:
     (frequencies (Hz), mode vectors, its summary entry, its warnings)."""
     try:
         with PETSc.Log.Stage("Jacobi"):
-            res = jacobi.solve(K, M, p.nmodes, p.jacobi_tol, p.jacobi_max_sweeps)
+            res = jacobi.solve(K, M, plan.nmodes, plan.jacobi_tol, plan.jacobi_max_sweeps)
     except jacobi.MassError as exc:
-        raise NumericalError(mass_diagnosis(p, exc)) from None
+        raise NumericalError(mass_diagnosis(plan.body, exc)) from None
     owned.callback(destroy, *res.vectors)
-    freq = frequencies(res.eigenvalues[:p.nmodes])
+    freq = frequencies(res.eigenvalues[:plan.nmodes])
     # Modes at about 0 Hz (rigid-body motion) have no meaningful relative residual;
     # zero_energy_diagnosis reports them.
     finite = freq >= ZERO_HZ * rod[0]
     worst = float(np.max(res.residual[finite], initial=0.0))
-    summary = {"sweeps": res.sweeps, "seconds": res.seconds, "tol": p.jacobi_tol,
+    tol = plan.jacobi_tol
+    summary = {"sweeps": res.sweeps, "seconds": res.seconds, "tol": tol,
                "coupling": res.coupling, "eigenvalue_change": res.change,
                "residual": res.residual, "block_sizes": list(res.block)}
-    PETSc.Sys.Print(f"Jacobi: {res.sweeps} sweeps to tolerance {p.jacobi_tol:.0e}, "
+    PETSc.Sys.Print(f"Jacobi: {res.sweeps} sweeps to tolerance {tol:.0e}, "
                     f"{res.seconds:.3f} s, largest relative residual {worst:.1e}", comm=comm)
     warnings = []
     if worst > RESIDUAL_WARNING:
         warnings.append(
             f"Jacobi: relative residuals up to {worst:.1e} in the reported modes at "
-            f"-mpm_jacobi_tol {p.jacobi_tol:.0e}: mode shapes good to about {worst:.0e}, "
+            f"-mpm_jacobi_tol {tol:.0e}: mode shapes good to about {worst:.0e}, "
             f"frequencies to about {min(worst, worst ** 2 * 10):.0e} (relative); a "
             "smaller -mpm_jacobi_tol (the paper's 1e-15) costs a few more sweeps")
     return freq, res.vectors, summary, warnings
 
 
-def _references(p, comm, rod, owned) -> dict:
+def _references(plan, comm, rod, owned) -> dict:
     """The references of :func:`_analysis`: the 1D rod's frequencies ``rod``, the plain FE
     model (Gauss points) of the same mesh, and on the paper's scene its Table 3 (Hz)."""
-    fe_ppc = 2 if p.element == "q4" else 3
-    gauss = build(comm, p, placement="gauss", ppc=fe_ppc)
+    body, nmodes = plan.body, plan.nmodes
+    fe_ppc = 2 if body.element == "q4" else 3
+    gauss = build(comm, body, plan.soil, placement="gauss", ppc=fe_ppc)
     owned.callback(destroy, *reversed(gauss))
     _, _, Kg, Mg, _ = gauss
     # Its own options prefix: -eps_* tune the main solve, -fe_eps_* this one.
-    res = slepc_solve(Kg, Mg, p.nmodes, prefix="fe_")
+    res = slepc_solve(Kg, Mg, nmodes, prefix="fe_")
     destroy(*res.vectors)
     fe = frequencies(res.values)
     # The rod column only where the rod is the scene (not for a free body, say).
-    refs = {"rod_hz": rod if rod_applies(p) else None, "fe_gauss_hz": fe}
-    if is_paper_scene(p):
-        refs["paper_table3_hz"] = PAPER_TABLE3[p.element][:p.nmodes]
-        refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:p.nmodes]
+    refs = {"rod_hz": rod if rod_applies(body) else None, "fe_gauss_hz": fe}
+    if is_paper_scene(body, plan.soil):
+        refs["paper_table3_hz"] = PAPER_TABLE3[body.element][:nmodes]
+        refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:nmodes]
     return refs
 
 
@@ -428,10 +372,11 @@ def _full_modes(grid, free, vectors):
     return modes
 
 
-def _write_results(p, grid, free, vectors, freqs, rod, scale, summary):
-    comm = grid.comm
+def _write_results(plan, grid, free, vectors, freqs, rod, scale, summary):
+    """modes.vtu, the mode figure and the summary (rank 0); returns the files."""
+    comm, out = grid.comm, plan.outputs
     modes = _full_modes(grid, free, vectors)
-    summary_path = p.summary or os.path.join(p.output, "summary.json")
+    summary_path = out.summary
     files = {"summary": summary_path}
     if comm.getRank() != 0:
         return files
@@ -441,15 +386,15 @@ def _write_results(p, grid, free, vectors, freqs, rod, scale, summary):
         big = np.argmax(np.abs(u).max(axis=1))
         comp = np.argmax(np.abs(u[big]))
         modes[k] = u * np.sign(u[big, comp] or 1.0)
-    files["modes_vtu"] = os.path.join(p.output, "modes.vtu")
+    files["modes_vtu"] = os.path.join(out.folder, "modes.vtu")
     data = {f"mode_{k + 1}": np.column_stack([u, np.zeros(len(u))]) for k, u in enumerate(modes)}
     # Each mode's frequency travels with its shape: field data frequency_hz[k] is mode_{k+1}'s
     # (Hz, of the solver whose shapes these are: Jacobi's when it ran, else SLEPc's).
     output.write_vtu(files["modes_vtu"], coords, [output.grid_cells(grid)], point_data=data,
                      field_data={"frequency_hz": np.asarray(freqs[:len(modes)], dtype=float)})
-    if p.figures:
-        fig = mode_figure(grid, coords, modes, freqs, rod, p.size[1], scale)
-        files.update(output.save_figures(fig, p.output, "modes", p.figure_format))
+    if out.figures:
+        fig = mode_figure(grid, coords, modes, freqs, rod, plan.body.height, scale)
+        files.update(output.save_figures(fig, out.folder, "modes", out.formats))
     output.write_json(summary_path, dict(summary, files=files))
     return files
 

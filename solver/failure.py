@@ -1,26 +1,27 @@
-"""What a consolidation run that stops early writes: the summary so far (``"completed":
-false``, the ``error`` with the stage it stopped in) and, once the points hold a whole
-step after the stepping began, a checkpoint to continue from."""
+"""What a run that stops early writes, for both analyses: the summary so far
+(``"completed": false``, the ``error`` with the stage it stopped in) and, for a
+consolidation run once the points hold a whole step after the stepping began, a checkpoint
+to continue from."""
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
-from . import output, provenance, signals
+from . import output, signals
 from .errors import InternalError, Interrupted, describe, entry
 
 
 class RunFailure:
-    """What the failure handler of :func:`consolidation.run` needs, set as the run gets
-    there."""
+    """What the failure handlers of :func:`consolidation.run` and :func:`eigen.run` need,
+    set as the run gets there."""
 
-    def __init__(self, comm):
-        self.phase = "set-up"        # then "stepping", "reporting"
+    def __init__(self, comm, analysis="consolidation"):
+        self.phase = "set-up"        # then "stepping", "reporting" (eigen: "writing")
         self.summary = None          # the summary so far, and where it goes (once the
         self.summary_path = ""       # output folder is known to be this run's)
-        self.early = {"analysis": "consolidation"}   # the summary before there is one
+        self.analysis = analysis
+        self.early = {"analysis": analysis}   # the summary before there is one
         self.save = None             # save(step) writes a checkpoint (collective)
         self.ckpt_path = ""
         self.start = None            # the step the run started from (0, or a restart's)
@@ -29,14 +30,13 @@ class RunFailure:
         self.cleanup = []            # calls that undo the run's settings (FP)
         self.owned = []              # PETSc objects (and their owners), destroyed by run()
 
-    def begin(self, p, run_id):
-        """The run's options ``p`` and id, for a summary written before the full one (no
-        collective: the options as provenance records them, and the command line), and
-        where it goes: from here on a stopped run writes its summary."""
-        self.summary_path = p.summary or os.path.join(p.output, "summary.json")
-        self.early = {"analysis": "consolidation", "run_id": run_id,
-                      "provenance": {"argv": list(sys.argv),
-                                     "options": provenance.options(p)}}
+    def begin(self, summary_path, run_id, recorded):
+        """Where the summary goes, the run's id and its options as provenance records
+        them (``recorded``), for a summary written before the full one (no collective);
+        from here on a stopped run writes its summary."""
+        self.summary_path = summary_path
+        self.early = {"analysis": self.analysis, **({"run_id": run_id} if run_id else {}),
+                      "provenance": {"argv": list(sys.argv), "options": recorded}}
 
     def record(self, comm, message, exc=None, code=5, stage="", agreed=True):
         """Write what a stopped run can (a checkpoint when the state is whole, the stepping
@@ -59,7 +59,7 @@ class RunFailure:
             except Exception as err:   # noqa: BLE001  (the disk may be what failed)
                 said.append(f"no checkpoint ({describe(err)})")
         if comm.getRank() == 0 and self.summary_path:
-            said.append(self._write_summary(text, code, stage, ckpt))
+            said.append(self.write_summary(text, code, stage, ckpt))
         if message is None:
             return None
         said = f"; {', '.join(said)}" if said else ""
@@ -67,9 +67,10 @@ class RunFailure:
             return Interrupted(text + said, stage=stage, agreed=agreed)
         return InternalError(text + said)
 
-    def _write_summary(self, text, code, stage, ckpt) -> str:
-        """The summary of the stopped run (rank 0); what the error line says of it."""
-        summary = dict(self.summary or self.early)
+    def write_summary(self, text, code, stage, ckpt=None, extra=None) -> str:
+        """The summary of the stopped run (rank 0), with ``extra`` entries; what the error
+        line says of it."""
+        summary = dict(self.summary or self.early, **(extra or {}))
         files = {"summary": self.summary_path}
         if ckpt:
             files["checkpoint"] = ckpt

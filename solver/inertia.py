@@ -21,7 +21,7 @@ Two inertia errors at the earliest report time t_r (tau_r = c2 t_r / H^2), in un
     (zeta = 0.5: r = 0.36, T_d = 1.34 T_w);
   - both: the product of the two r, the local T_d;
 - the drag lag. The relative velocity relaxes to Darcy's at the rate lambda_S = lambda / S
-  (``timestep.drag_rate``): the flow, hence p, lags the quasi-static one by about 1/lambda_S,
+  (``Soil.drag_rate``): the flow, hence p, lags the quasi-static one by about 1/lambda_S,
   an error of about LAG / (lambda_S t_r) = LAG S / (lambda t_r). LAG = 2 is measured: on the
   paper's column (Pi = 435) S = 10.7 moved p at T_v = 0.1 by 0.34 % of q, 1.7 times the
   bare 1 / (lambda_S t_r) (the larger step that S allows adds to it). (lambda T_c is a
@@ -44,7 +44,6 @@ import math
 
 import numpy as np
 
-from . import analytic, assembly, timestep
 from .errors import InputError
 
 TOLERANCE = 0.002   # inertia error that -mpm_mass_scaling auto allows (fraction of q)
@@ -53,10 +52,10 @@ LAG = 2.0           # measured drag-lag error over the bare 1 / (lambda_S t_r)
 PI_MIN = 300.0      # measured: Pi_S below which a residual oscillation exceeds 0.05 % of q
 
 
-def decay(p) -> tuple:
+def decay(alpha: float, zeta: float) -> tuple:
     """(r, T_d / T_w): amplitude factor per damped period of the fundamental mode, and that
-    period over the undamped one, under local and fast-part damping (module docstring)."""
-    alpha, zeta = p.damping, p.fast_damping
+    period over the undamped one, under local damping ``alpha`` and fast-part damping
+    ``zeta`` (module docstring)."""
     r, stretch = 1.0, 1.0
     if zeta > 0:
         # In units of w1: (l^2 + 1)(l + 1) + 2 zeta l^2 = l^3 + (1 + 2 zeta) l^2 + l + 1.
@@ -68,27 +67,28 @@ def decay(p) -> tuple:
     return r, stretch
 
 
-def _times(p):
-    """(T_w, T_c, t_r): wave period, consolidation time, earliest report time (s)."""
-    H = p.size[1]
-    s = timestep.wave_speeds(p)
-    E_c = assembly.constrained_modulus(p.E, p.nu)
-    cv = analytic.consolidation_coefficient(p.k, E_c, timestep.unit_weight(p))
-    return 4 * H / s["c1"], H * H / s["c2"], min(p.Tv_report) * H * H / cv
+def _times(soil, H: float, first_tv: float):
+    """(T_w, T_c, t_r): wave period, consolidation time, earliest report time (s) of a
+    column of height H (m) reported first at T_v = ``first_tv``."""
+    s = soil.wave_speeds()
+    return 4 * H / s["c1"], H * H / s["c2"], first_tv * H * H / soil.c_v
 
 
-def regime(p, S: float = 1.0) -> dict:
-    """The inertia regime of scene ``p`` with mass scaling S: time scales (s), Pi, Pi_S,
-    the wave periods before the earliest report, both error estimates (fractions of q)."""
-    T_w, T_c, t_r = _times(p)
+def regime(soil, H: float, first_tv: float, alpha: float, zeta: float,
+           S: float = 1.0) -> dict:
+    """The inertia regime of a column of ``soil``, height H (m), first reported at T_v
+    ``first_tv``, under local damping ``alpha`` and fast-part damping ``zeta``, with mass
+    scaling S: time scales (s), Pi, Pi_S, the wave periods before the earliest report,
+    both error estimates (fractions of q)."""
+    T_w, T_c, t_r = _times(soil, H, first_tv)
     Pi = T_c / T_w
-    r, stretch = decay(p)
+    r, stretch = decay(alpha, zeta)
     periods = t_r / (T_w * math.sqrt(S) * stretch)
     return {"wave_period_s": T_w, "consolidation_time_s": T_c, "Pi": Pi,
             "mass_scaling": S, "Pi_S": Pi / math.sqrt(S), "wave_period_scaled_s":
-            T_w * math.sqrt(S), "first_report_Tv": min(p.Tv_report), "first_report_s": t_r,
+            T_w * math.sqrt(S), "first_report_Tv": first_tv, "first_report_s": t_r,
             "periods_to_first_report": periods, "wave_error": r ** periods,
-            "drag_lag_error": LAG * S / (timestep.drag_rate(p) * t_r),
+            "drag_lag_error": LAG * S / (soil.drag_rate() * t_r),
             "tolerance": TOLERANCE, "visible": VISIBLE, "Pi_S_min": PI_MIN,
             "criterion": "wave error r^(t_r / T_d) (r the decay per damped period T_d of "
                          "the scaled wave's fundamental mode, local or fast-part damping) and "
@@ -96,28 +96,30 @@ def regime(p, S: float = 1.0) -> dict:
                          "2 S / (lambda t_r) at the earliest report time t_r, in units of q"}
 
 
-def auto_factor(p) -> float:
-    """The largest S whose two inertia errors stay within TOLERANCE (module docstring)."""
-    r, stretch = decay(p)
+def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float) -> float:
+    """The largest S whose two inertia errors stay within TOLERANCE (module docstring);
+    arguments as :func:`regime`'s."""
+    r, stretch = decay(alpha, zeta)
     if r >= 1:
         raise InputError("-mpm_mass_scaling auto: needs damping (-mpm_fast_damping or "
                          "-mpm_damping > 0), without which the undrained wave does not decay; "
                          "give a factor S")
-    T_w, T_c, t_r = _times(p)
+    T_w, T_c, t_r = _times(soil, H, first_tv)
     periods = math.log(1 / TOLERANCE) / math.log(1 / r)
     wave = (t_r / (T_w * stretch * periods)) ** 2   # t_r is `periods` periods
-    drag = TOLERANCE * timestep.drag_rate(p) * t_r / LAG
+    drag = TOLERANCE * soil.drag_rate() * t_r / LAG
     floor = (T_c / T_w / PI_MIN) ** 2
     return float(f"{min(wave, drag, floor):.3g}")   # 3 digits: the same on every rank count
 
 
-def scaling(p) -> float:
-    """The factor S of ``-mpm_mass_scaling`` (none: 1)."""
-    if p.mass_scaling == "none":
+def scaling(choice: str, soil, H: float, first_tv: float, alpha: float, zeta: float) -> float:
+    """The factor S of ``-mpm_mass_scaling`` ``choice`` (none: 1; auto: :func:`auto_factor`
+    with the other arguments; else the number)."""
+    if choice == "none":
         return 1.0
-    if p.mass_scaling == "auto":
-        return auto_factor(p)
-    return float(p.mass_scaling)
+    if choice == "auto":
+        return auto_factor(soil, H, first_tv, alpha, zeta)
+    return float(choice)
 
 
 def warning(reg: dict):

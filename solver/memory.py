@@ -24,24 +24,26 @@ def available() -> int:
         return 1 << 62
 
 
-def estimate(p) -> int:
-    """Bytes the whole job needs, over all ranks."""
-    nx, ny = p.cells
-    nodes = lattice_nodes(p.element, p.cells)
-    points = nx * ny * p.ppc ** 2
+def estimate(body, jacobi: bool = False) -> int:
+    """Bytes the whole job on ``body`` (scene.Body) needs, over all ranks; ``jacobi``: with
+    the dense Jacobi eigensolver."""
+    nx, ny = body.cells
+    nodes = lattice_nodes(body.element, body.cells)
+    points = nx * ny * body.ppc ** 2
     total = points * BYTES_PER_POINT + nodes * BYTES_PER_NODE
-    if p.analysis == "eigen" and "jacobi" in p.eigen_solver:
+    if jacobi:
         # The blocked Jacobi holds about 8 dense n x n arrays (K, M, Phi^T and their
         # products) over the ranks, and the mass check one more on rank 0.
         total += 9 * 8 * (2 * nodes) ** 2
     return total
 
 
-def check(p, comm=None):
-    """InputError if the model cannot fit in this machine's memory."""
-    need, have = estimate(p), available()
+def check(body, jacobi: bool = False):
+    """InputError if the model (:func:`estimate`'s arguments) cannot fit in this machine's
+    memory."""
+    need, have = estimate(body, jacobi), available()
     if need > 0.8 * have:
-        raise InputError(f"-mpm_cells {p.cells[0]},{p.cells[1]}: the model needs about "
+        raise InputError(f"-mpm_cells {body.cells[0]},{body.cells[1]}: the model needs about "
                          f"{need / 2**30:.1f} GiB, more than this machine's "
                          f"{have / 2**30:.1f} GiB allows (fewer cells or points per cell; "
                          "-mpm_eigen_solver slepc avoids Jacobi's dense matrices)")

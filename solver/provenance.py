@@ -24,14 +24,15 @@ _ALIASES = {"h5py": ("h5py._debian_h5py_serial", "h5py._debian_h5py_mpi")}
 GIT_SECONDS = 10      # a hung git (a network file system) must not hold up the run
 
 
-def collect(comm, p) -> dict:
-    """The provenance of the run of options ``p`` on the PETSc communicator ``comm``
-    (collective: rank 0 asks git and the libraries, every rank gets the same dict)."""
+def collect(comm, recorded: dict) -> dict:
+    """The provenance of a run on the PETSc communicator ``comm`` whose options are
+    ``recorded`` (:func:`options`) (collective: rank 0 asks git and the libraries, every
+    rank gets the same dict)."""
     info = None
     if comm.getRank() == 0:
         info = {"package": "mpm-geo", "version": __version__, "git": git_state(),
                 "python": platform.python_version(), "libraries": libraries(), "cpu": cpu(),
-                "ranks": comm.getSize(), "argv": list(sys.argv), "options": options(p)}
+                "ranks": comm.getSize(), "argv": list(sys.argv), "options": recorded}
     return comm.tompi4py().bcast(info, root=0)
 
 

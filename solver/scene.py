@@ -1,4 +1,4 @@
-"""The scene: what every analysis builds from the options, described by them as data.
+"""The scene: the body every analysis builds, and what loads it, as data.
 
 A scene is the body (a ``W x H`` rectangle of soil, ``-mpm_size``), its background grid
 (``-mpm_element``, ``-mpm_cells``), its material points (``-mpm_ppc``, ``-mpm_points``), the
@@ -15,6 +15,7 @@ Lifetimes: whatever a function here returns belongs to the caller, which destroy
 from __future__ import annotations
 
 from contextlib import ExitStack
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,16 +23,78 @@ from . import assembly
 from .grid import Grid
 from .points import place
 
-
-def mixture_density(p) -> float:
-    """Saturated density (1 - n) rho_s + n rho_l (kg/m3)."""
-    return (1 - p.porosity) * p.rho_s + p.porosity * p.rho_l
+SIDES = ("left", "right", "bottom", "top")
+NORMAL = {"left": "x", "right": "x", "bottom": "y", "top": "y"}
 
 
-def boundary_conditions(p) -> dict:
-    """The fixed displacement components per side (``-mpm_bc_*``): 'x', 'y', 'xy' or
-    'none' for each of left, right, bottom, top."""
-    return {"left": p.bc_left, "right": p.bc_right, "bottom": p.bc_bottom, "top": p.bc_top}
+@dataclass(frozen=True)
+class Body:
+    """The rectangle [0, W] x [0, H] (``size``, m), its grid and points, its sides.
+
+    ``element`` q4 | q8 | q9 and ``cells`` (NX, NY) make the background grid; ``ppc``
+    points per cell per direction, placed ``placement`` (uniform | gauss); ``bcs`` maps
+    each side to its fixed displacement components ('x', 'y', 'xy', 'none'); ``drained``
+    names the sides where the pore pressure is held at 0 (the others are impermeable).
+    """
+
+    element: str = "q4"
+    cells: tuple = (1, 10)
+    size: tuple = (0.1, 1.0)
+    ppc: int = 2
+    placement: str = "uniform"
+    bcs: tuple = (("left", "x"), ("right", "x"), ("bottom", "xy"), ("top", "none"))
+    drained: tuple = ("top",)
+
+    @classmethod
+    def from_options(cls, p) -> "Body":
+        """The body of the ``-mpm_`` options ``p``."""
+        return cls(element=p.element, cells=tuple(p.cells), size=tuple(p.size), ppc=p.ppc,
+                   placement=p.points,
+                   bcs=tuple((side, getattr(p, f"bc_{side}")) for side in SIDES),
+                   drained=tuple(p.drained))
+
+    @property
+    def height(self) -> float:
+        """H (m)."""
+        return self.size[1]
+
+    @property
+    def supports(self) -> dict:
+        """The fixed displacement components per side: {side: 'x' | 'y' | 'xy' | 'none'}."""
+        return dict(self.bcs)
+
+    @property
+    def impermeable(self) -> dict:
+        """The liquid's components tied to the solid's on the impermeable sides (no flow
+        relative to the skeleton across them): the normal one, in the form of supports."""
+        return {side: comp for side, comp in NORMAL.items() if side not in self.drained}
+
+    def cell_size(self) -> tuple:
+        """(h_x, h_y) (m)."""
+        return tuple(self.size[d] / self.cells[d] for d in (0, 1))
+
+
+@dataclass(frozen=True)
+class Loading:
+    """What drives consolidation: the surface pressure ``load`` q (Pa, downwards) on the
+    top, reached linearly over ``ramp`` (s; 0: a step), and ``gravity`` (m/s2, down)."""
+
+    load: float = 10.0e3
+    ramp: float = 0.0
+    gravity: float = 0.0
+
+    @classmethod
+    def from_options(cls, p) -> "Loading":
+        return cls(load=p.load, ramp=p.load_ramp, gravity=p.gravity)
+
+    def scale(self, soil, H: float) -> float:
+        """The pressure that normalises p (Pa): the surface load q, or without one the
+        weight of the column per unit area, rho_m g H (``soil``, height H in m)."""
+        return self.load if self.load > 0 else soil.density * self.gravity * H
+
+    def factor(self, t: float) -> float:
+        """The share of q applied at time t (s)."""
+        return 1.0 if self.ramp <= 0 else min(1.0, t / self.ramp)
 
 
 def destroy(*objects) -> None:
@@ -42,34 +105,31 @@ def destroy(*objects) -> None:
             obj.destroy()
 
 
-def build(comm, p, placement=None, ppc=None):
-    """Grid, points and the free-DOF K, M of the scene ``p`` (see
-    :func:`assembly.stiffness_and_mass`); ``placement`` and ``ppc`` replace the scene's
+def build(comm, body: Body, soil, placement=None, ppc=None):
+    """Grid, points and the free-DOF K, M of ``body`` made of ``soil`` (see
+    :func:`assembly.stiffness_and_mass`); ``placement`` and ``ppc`` replace the body's
     (the plain FE model: 'gauss'). The caller destroys all five."""
     with ExitStack() as undo:        # a failure destroys what was made before it
-        grid = Grid(comm, p.element, p.cells, p.size)
+        grid = Grid(comm, body.element, body.cells, body.size)
         undo.callback(grid.destroy)
-        points = place(grid, ppc or p.ppc, mixture_density(p), placement or p.points)
+        points = place(grid, ppc or body.ppc, soil.density, placement or body.placement)
         undo.callback(points.destroy)
-        K, M, free = assembly.stiffness_and_mass(grid, points, p.E, p.nu,
-                                                 boundary_conditions(p))
+        K, M, free = assembly.stiffness_and_mass(grid, points, soil.E, soil.nu,
+                                                 body.supports)
         undo.pop_all()
     return grid, points, K, M, free
 
 
-def two_phase_body(comm, p):
-    """Grid and material points of the two-phase (consolidation) scene ``p``: uniform
-    points with the fields of :func:`twophase.point_fields`, numbered over the ranks
-    (``id``, for messages and the ordered field output), volume ratio J = 1 and the
-    reference positions x0 = x. The run and ``scripts/benchmark`` build it alike. The
-    caller destroys both (collective)."""
-    # Imported here: twophase imports timestep, which imports this module.
-    from .twophase import point_fields
-
+def two_phase_body(comm, body: Body, soil, fields: dict):
+    """Grid and material points of a two-phase (consolidation) ``body`` of ``soil``:
+    uniform points with ``fields`` ({name: components}, :func:`twophase.point_fields`),
+    numbered over the ranks (``id``, for messages and the ordered field output), volume
+    ratio J = 1 and the reference positions x0 = x. The run and ``scripts/benchmark``
+    build it alike. The caller destroys both (collective)."""
     with ExitStack() as undo:
-        grid = Grid(comm, p.element, p.cells, p.size)
+        grid = Grid(comm, body.element, body.cells, body.size)
         undo.callback(grid.destroy)
-        points = place(grid, p.ppc, mixture_density(p), "uniform", point_fields(p))
+        points = place(grid, body.ppc, soil.density, "uniform", fields)
         undo.callback(points.destroy)
         offset = comm.tompi4py().exscan(points.n_local) or 0
         with points.fields("x", "x0", "id", "J") as (x, x0, ids, J):

@@ -9,7 +9,7 @@ import os
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, assembly, figures, output
+from . import analytic, figures, output
 
 
 class Surface:
@@ -31,15 +31,17 @@ class Surface:
     compressible water (diffusivity c2), and classic Terzaghi's for incompressible water.
     """
 
-    def __init__(self, grid, p):
-        self.H, self.h = p.size[1], grid.h[1]
-        self.order = min(grid.p, p.ppc - 1)
-        E_c = assembly.constrained_modulus(p.E, p.nu)
-        undrained = E_c + p.K_l / p.porosity
-        self.valid = p.gravity == 0 and p.load > 0
-        q = p.load
+    def __init__(self, grid, soil, loading, H, ppc):
+        """On ``grid`` with ``ppc`` points per cell per direction, a column of ``soil``
+        and height H (m) under ``loading`` (scene.Loading)."""
+        self.H, self.h = H, grid.h[1]
+        self.order = min(grid.p, ppc - 1)
+        E_c = soil.constrained_modulus
+        undrained = E_c + soil.K_l / soil.porosity
+        self.valid = loading.gravity == 0 and loading.load > 0
+        q = loading.load
         self.s0, self.s_inf = q * self.H / undrained, q * self.H / E_c
-        self.p0 = analytic.undrained_pressure(q, E_c, p.K_l, p.porosity)
+        self.p0 = analytic.undrained_pressure(q, E_c, soil.K_l, soil.porosity)
         self._generation = None     # of the points when the fit's selection was made
 
     def measure(self, points, mpi):
@@ -142,22 +144,22 @@ def print_degree(comm, degree):
     PETSc.Sys.Print("\n".join(lines), comm=comm)
 
 
-def write_files(p, surface, rows, cv, ratio):
+def write_files(outputs, surface, rows, refs, Tv_end, cells):
     """settlement.csv, the figure of U against T_v and that of the settlement (mm) against
-    time in the scene's unit, from the history ``rows`` (t, Tv, s, mean p); ``cv`` (m2/s),
-    ``ratio`` = c2 / c_v; rank 0."""
-    files = {"settlement_csv": surface.write_csv(p.output, rows, ratio)}
-    if p.figures:
+    time in the scene's unit, from the history ``rows`` (t, Tv, s, mean p), into
+    ``outputs`` (plan.Outputs); ``refs`` the plan's References, ``Tv_end`` the run's end,
+    ``cells`` the figures' words for the grid ('Q4 1 x 10 cells'); rank 0."""
+    ratio, folder, formats = refs.ratio, outputs.folder, outputs.formats
+    files = {"settlement_csv": surface.write_csv(folder, rows, ratio)}
+    if outputs.figures:
         fig = figures.consolidation_degree(
             output.pyplot(), np.array(rows, dtype=float).reshape(-1, 4)[:, 1],
-            *surface.degrees(rows), ratio, p.Tv_end,
-            f"Degree of consolidation, {p.element.upper()} {p.cells[0]} x {p.cells[1]} cells")
-        files.update(output.save_figures(fig, p.output, "settlement", p.figure_format))
-    if p.figures and surface.valid:      # a load case: its settlement has references
+            *surface.degrees(rows), ratio, Tv_end, f"Degree of consolidation, {cells}")
+        files.update(output.save_figures(fig, folder, "settlement", formats))
+    if outputs.figures and surface.valid:      # a load case: its settlement has references
         r = np.array(rows, dtype=float).reshape(-1, 4)
         fig = figures.settlement_time(
-            output.pyplot(), r[:, 0], r[:, 2], surface.s0, surface.s_inf, cv, ratio,
-            p.size[1], f"Surface settlement, {p.element.upper()} {p.cells[0]} x "
-                       f"{p.cells[1]} cells")
-        files.update(output.save_figures(fig, p.output, "settlement_time", p.figure_format))
+            output.pyplot(), r[:, 0], r[:, 2], surface.s0, surface.s_inf, refs.c_v, ratio,
+            surface.H, f"Surface settlement, {cells}")
+        files.update(output.save_figures(fig, folder, "settlement_time", formats))
     return files

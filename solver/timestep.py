@@ -20,47 +20,9 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, assembly, shapes
-from .scene import boundary_conditions, mixture_density
-
-G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defined
-
-
-def unit_weight(p) -> float:
-    """gamma_w = rho_l g (N/m3) of the liquid, with the g that defines k."""
-    return p.rho_l * G_REF
-
-
-def drag_coefficient(p) -> float:
-    """n mu_l / kappa_l of eq. (12) (kg/m3/s), with the intrinsic permeability
-    kappa_l = k mu_l / (rho_l g): the drag per unit volume and unit relative velocity."""
-    kappa = p.k * p.mu_l / (p.rho_l * G_REF)
-    return p.porosity * p.mu_l / kappa
-
-
-def drag_rate(p, S: float = 1.0) -> float:
-    """Decay rate (1/s) of the relative velocity w = v_l - v_s under the drag alone, with
-    both phases' inertia scaled by S (-mpm_mass_scaling; the drag is not)."""
-    n = p.porosity
-    return n * G_REF / p.k * (1 + n * p.rho_l / ((1 - n) * p.rho_s)) / S
-
-
-def wave_speeds(p, S: float = 1.0) -> dict:
-    """Speeds c (drained), c1 (undrained) in m/s and the diffusivity c2 in m2/s, with the
-    inertia scaled by S (the speeds fall as 1/sqrt(S); c2 has no inertia in it)."""
-    E_c = assembly.constrained_modulus(p.E, p.nu)
-    rho = mixture_density(p) * S
-    return {"c": np.sqrt(E_c / rho), "c1": np.sqrt((E_c + p.K_l / p.porosity) / rho),
-            "c2": analytic.consistent_coefficient(p.k, E_c, unit_weight(p), p.K_l,
-                                                  p.porosity)}
-
-
-def impermeable(drained) -> dict:
-    """The liquid's components tied to the solid's on the impermeable sides (no flow
-    relative to the skeleton across them): the normal one, in the form of bcs."""
-    normal = {"left": "x", "right": "x", "bottom": "y", "top": "y"}
-    return {side: comp for side, comp in normal.items() if side not in drained}
-
+from . import assembly, shapes
+from .grid import Grid
+from .points import place
 
 # Dense stability analysis of the whole grid up to this many unknowns, else on a patch: the
 # largest of the paper's scenes (M2-Q8/Q9, M3-Q4: 1640) and no more. Its cost grows as the
@@ -88,15 +50,16 @@ def _patch(element, cells, max_state) -> tuple:
     return tuple(patch)
 
 
-def analysis_cells(p) -> tuple:
+def analysis_cells(element: str, cells) -> tuple:
     """The cells (NX, NY) that :func:`discrete_limit` analyses: the whole grid, or a patch
     of at most 4 x 10 cells of the same size when the grid has more than ``MAX_STATE``
     unknowns."""
-    return _patch(p.element, p.cells, MAX_STATE)
+    return _patch(element, cells, MAX_STATE)
 
 
-def discrete_limit(comm, p, scheme) -> tuple:
-    """The stability limit (s) of the explicit step itself, and the cells it was found on.
+def discrete_limit(comm, body, soil, scheme) -> tuple:
+    """The stability limit (s) of the explicit step itself on ``body`` (scene.Body) of
+    ``soil`` under ``scheme`` (scheme.Scheme), and the cells it was found on.
 
     Linearised (points fixed, no local damping), one step maps the nodal accumulated
     displacements U = (U_s, U_l) and the projected point velocities y = (y_s, y_l) as
@@ -117,30 +80,28 @@ def discrete_limit(comm, p, scheme) -> tuple:
     same on M3-Q4, within 0.3 % on the quadratic columns) brackets the search on the grid
     itself: two or a few dense eigenvalue problems instead of about seventeen.
     """
-    cells = analysis_cells(p)
+    cells = analysis_cells(body.element, body.cells)
     limit = None
     if comm.getRank() == 0:
-        small = _patch(p.element, cells, ESTIMATE_STATE)
-        estimate = _limit_on(p, scheme, small) if small != cells else None
-        limit = _limit_on(p, scheme, cells, estimate) * viscous_factor(p.bulk_viscosity)
+        small = _patch(body.element, cells, ESTIMATE_STATE)
+        estimate = _limit_on(body, soil, scheme, small) if small != cells else None
+        limit = (_limit_on(body, soil, scheme, cells, estimate)
+                 * viscous_factor(scheme.bulk_viscosity))
     return comm.tompi4py().bcast(limit, root=0), cells
 
 
-def _limit_on(p, scheme, cells, estimate=None) -> float:
-    """The undamped step's limit (s) on a grid of ``cells`` cells of the scene's cell size
+def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
+    """The undamped step's limit (s) on a grid of ``cells`` cells of the body's cell size
     (one rank), searched near ``estimate`` when one is given."""
-    from .grid import Grid
-    from .points import place
-
-    size = tuple(L * c / n for L, c, n in zip(p.size, cells, p.cells))
-    with Grid(PETSc.COMM_SELF, p.element, cells, size) as grid, \
-            place(grid, p.ppc, mixture_density(p), "uniform") as points:
-        S = scheme["mass_scaling"]
-        guess = min(grid.h) / wave_speeds(p, S)["c1"]
-        if scheme["drag"] == "explicit":
-            guess = min(2 / drag_rate(p, S), guess)
-        return _bisect_limit(_linear_parts(grid, points, p, scheme), p.flip, guess,
-                             estimate=estimate)
+    size = tuple(L * c / n for L, c, n in zip(body.size, cells, body.cells))
+    with Grid(PETSc.COMM_SELF, body.element, cells, size) as grid, \
+            place(grid, body.ppc, soil.density, "uniform") as points:
+        S = scheme.mass_scaling
+        guess = min(grid.h) / soil.wave_speeds(S)["c1"]
+        if scheme.drag == "explicit":
+            guess = min(2 / soil.drag_rate(S), guess)
+        return _bisect_limit(_linear_parts(grid, points, body, soil, scheme), scheme.flip,
+                             guess, estimate=estimate)
 
 
 def viscous_factor(b1: float) -> float:
@@ -155,17 +116,17 @@ def viscous_factor(b1: float) -> float:
     return float(np.sqrt(1 + xi * xi) - xi)
 
 
-def _linear_step(grid, points, p, scheme, dt=0.0):
+def _linear_step(grid, points, body, soil, scheme, dt=0.0):
     """Dense L_U, L_y, R of the linearised step over the free DOFs (one rank), at the time
     step dt (only implicit drag depends on it; dt = 0 is the semi-discrete operator)."""
-    parts = _linear_parts(grid, points, p, scheme)
+    parts = _linear_parts(grid, points, body, soil, scheme)
     return (*_accelerations(parts, dt), parts["R"])
 
 
-def _linear_parts(grid, points, p, scheme):
+def _linear_parts(grid, points, body, soil, scheme):
     """What the linearised step is made of, over the free DOFs: the nodal forces on U
     (``fm``, ``fl``), the lumped masses and drag per DOF, the fixed-phase masks, R."""
-    n = p.porosity
+    n = soil.porosity
     x, V = points.get("x", "volume")
     it = assembly.interpolation(grid, x)
     N, dN, nodes = it.N, it.dNdx, it.nodes
@@ -178,30 +139,30 @@ def _linear_parts(grid, points, p, scheme):
         np.add.at(out, (rows, nodes.ravel()), values.ravel())
         return out
 
-    Nm, Wm = spread(N), spread(assembly.lumping_weights(N, scheme["lumping"]))
+    Nm, Wm = spread(N), spread(assembly.lumping_weights(N, scheme.lumping))
     Dx, Dy = spread(dN[..., 0]), spread(dN[..., 1])
     Z = np.zeros_like(Dx)
     B = np.stack([np.hstack([Dx, Z]), np.hstack([Z, Dy]), np.hstack([Dy, Dx])], axis=1)
     div = B[:, 0] + B[:, 1]
     # The liquid's weights Wl, interpolation Nl and divergence Dl: w, N and div, or the
     # blended N_hat for all three.
-    if scheme["liquid_basis"] == "blended":
+    if scheme.liquid_basis == "blended":
         bl = assembly.interpolation(grid, x, blended=True)
         Wl = Nl = spread(bl.N)
         Dl = np.hstack([spread(bl.dNdx[..., 0]), spread(bl.dNdx[..., 1])])
     else:
         Wl, Nl, Dl = Wm, Nm, div
     # Inertia scaled by S (-mpm_mass_scaling); drag and forces are not.
-    S = scheme["mass_scaling"]
-    ms, ml, mt = (1 - n) * p.rho_s * S * V, n * p.rho_l * S * V, p.rho_l * S * V
+    S = scheme.mass_scaling
+    ms, ml, mt = (1 - n) * soil.rho_s * S * V, n * soil.rho_l * S * V, soil.rho_l * S * V
     Ms = Wm.T @ ms
-    Ml, Mt, Q = (Wl.T @ v for v in (ml, mt, drag_coefficient(p) * V))
-    sig = np.einsum("ij,pjk->pik", assembly.elasticity(p.E, p.nu), B)
+    Ml, Mt, Q = (Wl.T @ v for v in (ml, mt, soil.drag_coefficient * V))
+    sig = np.einsum("ij,pjk->pik", soil.elasticity(), B)
     sig = np.concatenate([sig, np.zeros_like(sig)], axis=2)            # on (U_s, U_l)
     # dp = -(K_l / n) (div u_s + n div(u_l - u_s)), the relative motion in the liquid's
     # basis: (1 - n) div u_s + n div u_l when that is N.
-    pres = -(p.K_l / n) * np.hstack([div - n * Dl, n * Dl])
-    if scheme["pressure_projection"] == "nodal":
+    pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
+    if scheme.pressure_projection == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
         Sw = Wm.T @ V
         pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
@@ -220,12 +181,12 @@ def _linear_parts(grid, points, p, scheme):
     # Grid node (i, j) is local node j * nx + i on one rank; DOFs are (x block, y block).
     # A liquid DOF normal to an impermeable side is tied to the solid's: held with it, else
     # moved by the mixture's equation with the solid's velocity (``tie``, ``kernels``).
-    fixed_s = grid.constrained_mask(boundary_conditions(p)).reshape(-1, 2).T.ravel()
-    tied = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2).T.ravel()
+    fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2).T.ravel()
+    tied = grid.constrained_mask(body.impermeable).reshape(-1, 2).T.ravel()
     free = np.flatnonzero(np.concatenate([~fixed_s, ~(tied & fixed_s)]) & np.tile(Ms > 0, 4))
     return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
             "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
-            "P": _tie(free, tied), "implicit": scheme["drag"] == "implicit"}
+            "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
 
 
 def _tie(free, tied):
@@ -339,15 +300,15 @@ def _bracket(stable, estimate, step, tries=4):
     return (near, None) if up else (None, near)
 
 
-def criteria(p, f1: float, dt_discrete: float, h, S: float = 1.0) -> dict:
-    """All critical time steps (s) of the scene, keyed as in the summary: cell sizes h (m),
-    f1 the physical fundamental frequency (Hz), S the mass scaling (f1 falls as
-    1/sqrt(S), the wave limits grow as sqrt(S), the drag limit as S)."""
+def criteria(soil, H: float, f1: float, dt_discrete: float, h, S: float = 1.0) -> dict:
+    """All critical time steps (s) of a column of ``soil`` and height H (m), keyed as in
+    the summary: cell sizes h (m), f1 the physical fundamental frequency (Hz), S the mass
+    scaling (f1 falls as 1/sqrt(S), the wave limits grow as sqrt(S), the drag limit as S)."""
     L = min(h)
-    s = wave_speeds(p, S)
-    c3 = 2 * np.pi * f1 / np.sqrt(S) * p.size[1]
+    s = soil.wave_speeds(S)
+    c3 = 2 * np.pi * f1 / np.sqrt(S) * H
     return {"cfl": L / s["c"], "undrained": L / s["c1"], "diffusion": L * L / (2 * s["c2"]),
-            "oscillator": L / c3, "drag": 2 / drag_rate(p, S), "discrete": dt_discrete}
+            "oscillator": L / c3, "drag": 2 / soil.drag_rate(S), "discrete": dt_discrete}
 
 
 def applicable(limits: dict, drag: str) -> dict:

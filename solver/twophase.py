@@ -32,7 +32,7 @@ One step, with every nodal quantity lumped (a diagonal):
 Porosity, volumes and masses stay at their initial values (small strain: the paper neglects
 spatial variation of density and porosity, and the analytic references are linear).
 
-Scheme options (``assembly.step_scheme``, docs/method.md): shape functions at the points'
+Scheme options (:class:`solver.scheme.Scheme`, docs/method.md): shape functions at the points'
 initial positions x0 (small kinematics) or current ones (large); pore-pressure increments
 kept per point or projected through the nodes (lumped L2 projection sum w V dp / S,
 interpolated back at x0 or at the new positions); the liquid equation in the element's
@@ -60,24 +60,24 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import assembly, kernels, shapes
+from . import kernels, shapes
+from .scheme import Scheme
 from .errors import NumericalError
 from .kernels import NB, NF, NG
-from .scene import mixture_density
-from .timestep import drag_coefficient, impermeable, wave_speeds
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
 POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
                 "J": 1}
 
 
-def point_fields(p) -> dict:
-    """The point fields of scene ``p``: POINT_FIELDS, with the viscous stress (Pa) of
-    -mpm_bulk_viscosity and the slow mixture velocity (m/s) of -mpm_fast_damping when on."""
+def point_fields(scheme) -> dict:
+    """The point fields of a run with ``scheme``: POINT_FIELDS, with the viscous stress (Pa)
+    of -mpm_bulk_viscosity and the slow mixture velocity (m/s) of -mpm_fast_damping when
+    on."""
     fields = dict(POINT_FIELDS)
-    if p.bulk_viscosity > 0:
+    if scheme.bulk_viscosity > 0:
         fields["visc"] = 1
-    if p.fast_damping > 0:
+    if scheme.fast_damping > 0:
         fields["vslow"] = 2
     return fields
 
@@ -97,8 +97,8 @@ def kernel_variant(element: str, scheme) -> tuple:
     """The compiled variant of the step's kernels for a cell type and scheme: the number of
     the cell's nodes, and the lumping and liquid basis as None (row sums, the element's
     basis) or True (HRZ, blended): their types select the machine code."""
-    return (len(shapes.OFFSETS[element]), True if scheme["lumping"] != "rowsum" else None,
-            True if scheme["liquid_basis"] == "blended" else None)
+    return (len(shapes.OFFSETS[element]), True if scheme.lumping != "rowsum" else None,
+            True if scheme.liquid_basis == "blended" else None)
 
 
 def compile_kernels(element: str, scheme) -> dict:
@@ -114,7 +114,7 @@ def compile_defaults() -> None:
     that a machine's first runs compile nothing (``scripts/install`` calls this)."""
     t = time.perf_counter()
     for element in shapes.OFFSETS:
-        record = compile_kernels(element, assembly.auto_scheme(element))
+        record = compile_kernels(element, Scheme.resolve(element, {}))
     PETSc.Sys.Print(f"Step kernels of {', '.join(shapes.OFFSETS).upper()} ready in "
                     f"{time.perf_counter() - t:.1f} s ({record['compiled']} compiled, "
                     f"{record['loaded']} loaded from numba's cache)")
@@ -130,29 +130,32 @@ class TwoPhase:
     through ``MaterialPoints`` (it bumps the generation). The reference positions x0 are
     constants of the run."""
 
-    def __init__(self, grid, points, p, bcs, scheme):
-        self.grid, self.points, self.p = grid, points, p
-        self.lumping = scheme["lumping"]
+    def __init__(self, grid, points, soil, body, loading, scheme):
+        """The model of ``body`` (scene.Body: supports, drainage) on ``grid`` and
+        ``points``, made of ``soil`` (soil.Soil), under ``loading`` (scene.Loading), stepped
+        with ``scheme`` (scheme.Scheme)."""
+        self.grid, self.points, self.soil, self.loading = grid, points, soil, loading
+        self.lumping = scheme.lumping
         # Small kinematics: shape functions at the initial positions x0 (a point's cell never
         # changes, so nothing migrates); large: at the current positions.
-        self.small = scheme["kinematics"] == "small"
-        self.project = scheme["pressure_projection"] == "nodal"
-        self.blend = scheme["liquid_basis"] == "blended"
-        self.implicit = scheme["drag"] == "implicit"
+        self.small = scheme.kinematics == "small"
+        self.project = scheme.pressure_projection == "nodal"
+        self.blend = scheme.liquid_basis == "blended"
+        self.implicit = scheme.drag == "implicit"
         self.hrz = self.lumping != "rowsum"
         self.nf = NF + self.blend
-        self.D = assembly.elasticity(p.E, p.nu)
-        n = p.porosity
+        self.D = soil.elasticity()
+        n = soil.porosity
         self.n = n
-        self.drag = drag_coefficient(p)                     # eq. 12 (kg/m3/s)
+        self.drag = soil.drag_coefficient                   # eq. 12 (kg/m3/s)
         # Lumped quantities per unit S = sum w V (uniform porosity and densities). Mass
         # scaling multiplies the inertia only: the drag and the weight stay physical.
-        inertia = scheme["mass_scaling"]
-        self.c_s = (1 - n) * p.rho_s * inertia              # M_s / S, kg/m3
-        self.c_l = n * p.rho_l * inertia                    # M_l / S
-        self.c_t = p.rho_l * inertia                        # M~_l / S
+        inertia = scheme.mass_scaling
+        self.c_s = (1 - n) * soil.rho_s * inertia           # M_s / S, kg/m3
+        self.c_l = n * soil.rho_l * inertia                 # M_l / S
+        self.c_t = soil.rho_l * inertia                     # M~_l / S
         self.c_q = self.drag                                # Q / S, kg/m3/s
-        self._damping_terms(p, inertia)
+        self._damping_terms(soil, body.height, scheme)
         self.serial = grid.comm.getSize() == 1
         self.mpi = grid.comm.tompi4py()
         self.ng = grid.gxm * grid.gym
@@ -160,9 +163,9 @@ class TwoPhase:
         # One rank: the ghosted local and the global node sets are the same (the grid is not
         # periodic), so the nodal sums need no PETSc scatter.
         assert not self.serial or self.ng == self.nown
-        self.fixed_s = grid.constrained_mask(bcs).reshape(-1, 2)
-        self.fixed_l = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
-        self.traction = self._traction(p.load)
+        self.fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2)
+        self.fixed_l = grid.constrained_mask(body.impermeable).reshape(-1, 2)
+        self.traction = self._traction(loading.load)
         self._R, self._B = self._reals(), self._node_data()
         # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
         # length selects the kernels' machine code for the cell type.
@@ -187,15 +190,15 @@ class TwoPhase:
         self.ev_migrate = _event("MPMMigrate")
 
     # -- set-up ----------------------------------------------------------------------------
-    def _damping_terms(self, p, S):
+    def _damping_terms(self, soil, H, scheme):
         """Coefficients of the two damping terms beside local damping (0: off): the bulk
         viscosity eta = b1 rho c1 h (Pa s), and the fast-part damping rate 2 zeta w1 and
-        low-pass rate w1 (1/s), from the wave with inertia scaled by S."""
-        b1 = getattr(p, "bulk_viscosity", 0.0)
-        zeta = getattr(p, "fast_damping", 0.0)
-        c1 = float(wave_speeds(p, S)["c1"])
-        self.eta = b1 * mixture_density(p) * S * c1 * min(self.grid.h)
-        w1 = 2 * np.pi * c1 / (4 * p.size[1])
+        low-pass rate w1 (1/s), from the wave with inertia scaled by S, in a column of
+        height H (m)."""
+        b1, zeta, S = scheme.bulk_viscosity, scheme.fast_damping, scheme.mass_scaling
+        c1 = float(soil.wave_speeds(S)["c1"])
+        self.eta = b1 * soil.density * S * c1 * min(self.grid.h)
+        w1 = 2 * np.pi * c1 / (4 * H)
         self.fast_rate, self.slow_rate = 2 * zeta * w1, (w1 if zeta > 0 else 0.0)
 
     def _traction(self, q):
@@ -226,16 +229,16 @@ class TwoPhase:
 
     def _reals(self):
         """The kernels' real data (kernels.R*, SI units)."""
-        g, p, K, n = self.grid, self.p, kernels, self.n
+        g, K, n, soil = self.grid, kernels, self.n, self.soil
         R = np.zeros(K.NR)
         R[K.RHX], R[K.RHY] = g.h
         R[K.RSX], R[K.RSY] = 2.0 / g.h[0], 2.0 / g.h[1]
         R[K.RCS], R[K.RCL], R[K.RCT], R[K.RCQ] = self.c_s, self.c_l, self.c_t, self.c_q
-        R[K.RN], R[K.RKL] = n, p.K_l
+        R[K.RN], R[K.RKL] = n, soil.K_l
         # Body forces of the mixture (with N) and of the liquid (with N_l), per unit volume.
-        gy = -p.gravity
-        R[K.RGM] = ((1 - n) * p.rho_s + n * p.rho_l) * gy
-        R[K.RGL] = p.rho_l * gy
+        gy = -self.loading.gravity
+        R[K.RGM] = ((1 - n) * soil.rho_s + n * soil.rho_l) * gy
+        R[K.RGL] = soil.rho_l * gy
         R[K.RETA], R[K.RFAST], R[K.RSLOW] = self.eta, self.fast_rate, self.slow_rate
         R[K.RBLEND] = shapes.BLEND
         R[K.RD:K.RD + 9] = self.D.ravel()

@@ -1,0 +1,232 @@
+"""What a consolidation run reports: the monitor point, the profiles and their errors against
+the references, the tables, the CSV files and the figures (Figs 3-5).
+
+The time loop hands its results to a :class:`Reporting` at its steps; the run's end calls
+:func:`print_reports` and :func:`write_files`. Everything here takes the run's
+:class:`solver.plan.Plan` or the few values it needs, never the options.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from petsc4py import PETSc
+
+from . import analytic, figures, output, settlement
+from .fields import PointSeries
+
+ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
+
+
+def title(plan) -> str:
+    """'Q4 1 x 10 cells': the cells of a plan, for figure titles."""
+    body = plan.body
+    return f"{body.element.upper()} {body.cells[0]} x {body.cells[1]} cells"
+
+
+class Reporting:
+    """Where the time loop hands its results: the monitor and settlement samples, the
+    profiles and reports at the isochrone and report steps, settlement.csv at each report,
+    the field series; the records go into the run's ``state``. Made after the model, it
+    resumes a restart's series and says so."""
+
+    def __init__(self, plan, grid, points, state, comm):
+        self.plan, self.comm, self.mpi = plan, comm, comm.tompi4py()
+        self.state, self.points, refs = state, points, plan.refs
+        self.H, self.q, self.ratio = plan.body.height, refs.q, refs.ratio
+        self.files = {}
+        self.series = PointSeries(plan.outputs.folder, comm, plan.run["id"])
+        self.surface = settlement.Surface(grid, plan.soil, plan.loading, self.H,
+                                          plan.body.ppc)
+        self.depths = Depths(self.H)
+        self.depths.refresh(points)
+        if plan.restart:
+            # The series files of the checkpoint's run (an older one's have no id).
+            self.series.resume(self.state.series, plan.resumed_id)
+            self.state.series = self.series.entries
+            step = self.state.step
+            PETSc.Sys.Print(f"Restart from {plan.restart} at step {step} "
+                            f"(t = {step * plan.schedule.dt:.6g} s)", comm=comm)
+
+    def sample(self, t):
+        """The monitor's p / q and the surface settlement and mean p at time ``t``."""
+        Tv = self.plan.refs.time_factor(t)
+        self.state.history.append((t, Tv, monitor_pressure(self.points, self.mpi) / self.q))
+        self.state.settlement.append((t, Tv, *self.surface.measure(self.points, self.mpi)))
+
+    def isochrone(self, k, t):
+        """The profile at isochrone step ``k``; at a report step its report, degree of
+        consolidation and settlement.csv."""
+        plan, state, comm = self.plan, self.state, self.comm
+        schedule = plan.schedule
+        prof = profile(self.points, comm)
+        if comm.getRank() == 0:
+            state.profiles.append((schedule.iso_steps[k], t, prof))
+        if k in schedule.report_steps:
+            Tv = schedule.report_steps[k]
+            state.reports.append(report(Tv, t, self.points, self.mpi, plan.refs,
+                                        plan.monitor_height, self.depths))
+            state.degree.append(self.surface.report(Tv, state.settlement[-1], self.ratio))
+            if comm.getRank() == 0:
+                self.files["settlement_csv"] = self.surface.write_csv(
+                    plan.outputs.folder, state.settlement, self.ratio)
+
+    def write_fields(self, k, t):
+        """The points' fields at step ``k`` into the series (collective)."""
+        self.series.write(self.points, k, t)
+        self.state.series = self.series.entries
+
+
+def monitor_pressure(points, mpi):
+    """p at the monitor height: the points' p weighted by their monitor weights (every
+    10 steps: kept arrays and a buffer reduction, none on one rank)."""
+    from mpi4py import MPI
+
+    pp, mon = points.views("p", "monitor")
+    s = np.array([float(np.sum(pp * mon)), float(np.sum(mon))])
+    if mpi.Get_size() > 1:
+        mpi.Allreduce(MPI.IN_PLACE, s, op=MPI.SUM)
+    return s[0] / s[1]
+
+
+def profile(points, comm):
+    """(y0, p, volume, x) of every point, gathered on rank 0 (None elsewhere)."""
+    x0, pp, V, x = points.views("x0", "p", "volume", "x")
+    local = np.column_stack([x0[:, 1], pp, V, x[:, 0]])      # the one copy, 32 bytes a point
+    if comm.getSize() == 1:
+        return local
+    parts = comm.tompi4py().gather(local, root=0)
+    return np.concatenate(parts) if parts is not None else None
+
+
+def report(Tv, t, points, mpi, refs, height, depths):
+    """The monitor's p / q at T_v = ``Tv`` (time t, s) against both references at its
+    height (m), and the profile's L2 errors (``depths``: :class:`Depths`); ``refs`` the
+    plan's :class:`solver.plan.References`."""
+    H, q, cv, c2, p0 = refs.H, refs.q, refs.c_v, refs.c2, refs.p0
+    num = monitor_pressure(points, mpi) / q
+    ref = float(analytic.terzaghi(H - height, Tv, H))
+    con = float(analytic.terzaghi(H - height, Tv * c2 / cv, H, p0))
+    r = {"Tv": Tv, "t": t, "p_over_q": num, "terzaghi": ref, "consistent": con,
+         "error_pct": 100 * (num - ref) / ref, "error_consistent_pct": 100 * (num - con) / con}
+    r["l2_terzaghi"], r["l2_consistent"] = depths.l2_errors(
+        points, mpi, q, [lambda d: analytic.terzaghi(d, Tv, H),
+                         lambda d: analytic.terzaghi(d, Tv * c2 / cv, H, p0)])
+    return r
+
+
+class Depths:
+    """The points' depths below the surface, H - y0 (m), as the distinct values and each
+    point's index into them, kept per point generation: a reference profile is evaluated
+    once per distinct depth (a few hundred on a structured placement) and each rank sums
+    the errors of its own points, so a report at 1e6 points costs less than a step."""
+
+    def __init__(self, height):
+        self.height, self._generation = height, None
+
+    def refresh(self, points):
+        """Find the distinct depths (a sort of the points: 0.3 s at 1e6 points, done at
+        set-up and again only after the points changed)."""
+        if self._generation != points.generation:
+            x0 = points.views("x0")
+            self.values, self.index = np.unique(self.height - x0[:, 1], return_inverse=True)
+            self._generation = points.generation
+
+    def l2_errors(self, points, mpi, q, profiles) -> list:
+        """sqrt(sum V (p/q - exact)^2 / sum V) over all points for each ``profiles``
+        function exact(depth) (p/q, depth in m)."""
+        from mpi4py import MPI
+
+        self.refresh(points)
+        pp, V = points.views("p", "volume")
+        sums = np.array([float(np.sum(V * (pp / q - f(self.values)[self.index]) ** 2))
+                         for f in profiles] + [float(np.sum(V))])
+        if mpi.Get_size() > 1:
+            mpi.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+        return [float(np.sqrt(e / sums[-1])) for e in sums[:-1]]
+
+
+def print_reports(comm, reports):
+    lines = ["Normalised pore pressure p/q at the monitor point (Tables 4 and 5):",
+             f"{'T_v':>6s}{'p/q':>9s}{'Terzaghi':>10s}{'error':>9s}{'consistent':>12s}"
+             f"{'error':>9s}{'L2 Terz.':>10s}{'L2 cons.':>10s}"]
+    for r in reports:
+        lines.append(f"{r['Tv']:6.2f}{r['p_over_q']:9.3f}{r['terzaghi']:10.3f}"
+                     f"{r['error_pct']:8.2f}%{r['consistent']:12.3f}"
+                     f"{r['error_consistent_pct']:8.2f}%{r['l2_terzaghi']:10.4f}"
+                     f"{r['l2_consistent']:10.4f}")
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+def write_files(plan, profiles, history):
+    """Isochrones (Figs 4-5), the pressure field (Fig 3), the monitor history; rank 0."""
+    files, folder, q = {}, plan.outputs.folder, plan.refs.q
+    hist = np.array(history) if history else np.zeros((0, 3))
+    files["monitor_csv"] = os.path.join(folder, "monitor.csv")
+    with output.atomic(files["monitor_csv"]) as tmp:
+        np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q_compression_positive",
+                   comments="")
+    # Every point's pore pressure at every isochrone time: enough to redraw Figs 3-5.
+    files["profiles_csv"] = os.path.join(folder, "profiles.csv")
+    with output.atomic(files["profiles_csv"]) as tmp, open(tmp, "w") as fh:
+        fh.write("Tv,t_s,x_m,y0_m,p_over_q_compression_positive,volume_m3\n")
+        for Tv, t, prof in profiles:         # one isochrone at a time: 48 bytes per point
+            np.savetxt(fh, np.column_stack([np.full(len(prof), Tv), np.full(len(prof), t),
+                                            prof[:, 3], prof[:, 0],
+                                            prof[:, 1] / q, prof[:, 2]]),
+                       delimiter=",")
+    if plan.outputs.figures:
+        files.update(_figures(plan, profiles, hist))
+    return files
+
+
+def _figures(plan, profiles, hist):
+    """isochrones, pressure_field and monitor in the plan's figure formats."""
+    plt, out = output.pyplot(), plan.outputs
+    files = output.save_figures(_isochrone_figure(plt, plan, profiles), out.folder,
+                                "isochrones", out.formats)
+    shown = [pr for pr in profiles if pr[0] in plan.schedule.Tv_report] or profiles[-1:]
+    fig = figures.pressure_field(
+        plt, [(Tv, prof[:, 3], prof[:, 0], prof[:, 1]) for Tv, _, prof in shown],
+        plan.refs.q, f"Pore pressure field, {plan.body.element.upper()}, "
+                     f"{len(shown[0][2])} MPs", width=plan.body.size[0])
+    files.update(output.save_figures(fig, out.folder, "pressure_field", out.formats))
+    files.update(output.save_figures(_monitor_figure(plt, plan, hist), out.folder, "monitor",
+                                     out.formats))
+    return files
+
+
+def _isochrone_figure(plt, plan, profiles):
+    """The points' p / q at each report time over both references, coloured by T_v."""
+    refs = plan.refs
+    fig, ax = plt.subplots(figsize=(6, 6))
+    colors = figures.tv_colors(plt, len(profiles))
+    figures.isochrone_references(ax, [Tv for Tv, _, _ in profiles], colors, refs.H,
+                                 refs.ratio, refs.p0)
+    for i, ((Tv, _, prof), col) in enumerate(zip(profiles, colors)):
+        k = figures.drawn(len(prof))
+        ax.plot(prof[k, 1] / refs.q, prof[k, 0], "o", color=col, ms=3, mfc="none",
+                label=None if i else "MPM points")
+    ax.set_title(f"Isochrones, {title(plan)}")
+    figures.legend_below(ax, ncol=2)
+    return fig
+
+
+def _monitor_figure(plt, plan, hist):
+    """p / q at the monitor point against T_v, with both references at its depth."""
+    refs, height = plan.refs, plan.monitor_height
+    H = refs.H
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(hist[:, 1], hist[:, 2], lw=0.8, label="MPM")
+    Tv = np.geomspace(1e-4, plan.schedule.Tv_end, 400)
+    ax.plot(Tv, analytic.terzaghi(H - height, Tv, H), color="k",
+            label="Terzaghi, classic", **figures.CLASSIC)
+    ax.plot(Tv, analytic.terzaghi(H - height, Tv * refs.ratio, H, refs.p0), color="k",
+            label="Terzaghi, compressible water", **figures.COMPRESSIBLE)
+    ax.set_xscale("log")
+    ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
+    ax.set_ylabel(f"p / q at {height:.4g} m (-)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
