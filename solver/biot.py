@@ -58,11 +58,11 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from . import assembly, shapes
+from . import shapes
 from .errors import InputError, NumericalError
 from .grid import Grid
 from .options import BC_CHOICES
-from .timestep import G_REF
+from .soil import G_REF, constrained_modulus, elasticity
 
 SIDES = ("left", "right", "bottom", "top")
 ELEMENTS = ("q9", "q8")
@@ -121,7 +121,7 @@ class Body:
 
     def constrained_modulus(self) -> np.ndarray:
         """E_c (Pa) per layer."""
-        return np.array([assembly.constrained_modulus(E, nu)
+        return np.array([constrained_modulus(E, nu)
                          for E, nu in zip(self.values("E"), self.values("nu"))])
 
     def unit_weight(self) -> float:
@@ -303,7 +303,7 @@ def _operators(mesh, body):
     the flow H (p rows: H p), all (ndof, ndof)."""
     ref = _reference(mesh.element, mesh.h)
     layer = mesh.cell_rows(body)[mesh.row]
-    D = [assembly.elasticity(E, nu) for E, nu in zip(body.values("E"), body.values("nu"))]
+    D = [elasticity(E, nu) for E, nu in zip(body.values("E"), body.values("nu"))]
     lam = np.array([d[0, 1] for d in D])[layer]
     G = np.array([d[2, 2] for d in D])[layer]
     storage = (body.values("porosity") / body.K_l)[layer]

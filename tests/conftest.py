@@ -392,3 +392,18 @@ def ref_shape(element, xi, eta):
 def ref_shapes():
     """(ref_shape, REF_NODES): the independent shape functions."""
     return ref_shape, REF_NODES
+
+
+def typed(p):
+    """The typed values the solver's set-up makes of options ``p`` (solver.options.Params):
+    soil, body, loading and scheme, as a namespace (for tests that build models by hand)."""
+    from types import SimpleNamespace
+
+    from solver.scene import Body, Loading
+    from solver.scheme import Scheme
+    from solver.soil import Soil
+
+    soil = Soil.from_options(p)
+    return SimpleNamespace(soil=soil, body=Body.from_options(p),
+                           loading=Loading.from_options(p),
+                           scheme=Scheme.from_options(p, soil, min(p.Tv_report)))

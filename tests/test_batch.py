@@ -158,7 +158,7 @@ def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(inject, cl
                                                                        ranks):
     out = tmp_path / "out"
     args = ["-options_file", M1, *SHORT, "-mpm_output", out]
-    code, stdout, stderr, _ = inject("solver.consolidation._write_files", args, ranks)
+    code, stdout, stderr, _ = inject("solver.reporting.write_files", args, ranks)
     assert code == 5, stderr
     lines = _error_lines(stderr)
     assert len(lines) == 1 and "internal error: MemoryError: injected" in lines[0]
@@ -180,7 +180,7 @@ def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(inj
     """A failure between the step and its reports leaves no state whose records agree:
     the summary says so, no checkpoint is written."""
     out = tmp_path / "out"
-    code, _, stderr, _ = inject("solver.consolidation.report",
+    code, _, stderr, _ = inject("solver.reporting.report",
                                 ["-options_file", M1, *SHORT, "-mpm_output", out])
     assert code == 5 and stderr.count("\n") == 1, stderr
     assert "internal error: MemoryError: injected" in stderr
@@ -191,7 +191,7 @@ def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(inj
 
 def test_failure_on_some_ranks_inside_the_stepping_aborts_rather_than_hangs(tmp_path):
     out = tmp_path / "out"
-    code, _, stderr = _inject(tmp_path, "solver.consolidation.report",
+    code, _, stderr = _inject(tmp_path, "solver.reporting.report",
                               ["-options_file", M1, *SHORT, "-mpm_output", out], ranks=2,
                               timeout=120)
     assert code not in (0, 124), stderr

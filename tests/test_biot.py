@@ -12,7 +12,7 @@ from scipy.linalg import eigh
 
 from conftest import scene_options
 from solver import analytic, biot
-from solver.assembly import constrained_modulus
+from solver.soil import constrained_modulus
 from solver.errors import InputError
 
 SELF = PETSc.COMM_SELF

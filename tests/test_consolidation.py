@@ -289,19 +289,20 @@ def test_refined_grids_take_the_patch_and_keep_the_limit():
     from conftest import scene_options
     from petsc4py import PETSc
 
-    from solver import assembly, timestep
+    from conftest import typed
+
+    from solver import timestep
 
     drag = dict(drag="explicit", damping=0.5, fast_damping=0, mass_scaling="none")
     for element, cells, ppc in PAPER_SCENES:
         p = scene_options(element=element, cells=cells, ppc=ppc, **drag)
-        assert timestep.analysis_cells(p) == p.cells, (element, cells)
+        assert timestep.analysis_cells(p.element, p.cells) == p.cells, (element, cells)
     for cells in ("5,50", "6,60", "8,80", "20,200"):
         p = scene_options(cells=cells, **drag)
-        assert timestep.analysis_cells(p) == (4, 10), cells
-    p = scene_options(cells="5,50", **drag)
-    scheme = assembly.step_scheme(p)
-    patch, _ = timestep.discrete_limit(PETSc.COMM_SELF, p, scheme)
-    whole = timestep._limit_on(p, scheme, p.cells, estimate=patch)
+        assert timestep.analysis_cells(p.element, p.cells) == (4, 10), cells
+    t = typed(scene_options(cells="5,50", **drag))
+    patch, _ = timestep.discrete_limit(PETSc.COMM_SELF, t.body, t.soil, t.scheme)
+    whole = timestep._limit_on(t.body, t.soil, t.scheme, t.body.cells, estimate=patch)
     assert patch == pytest.approx(whole, rel=2e-4)
 
 
@@ -312,15 +313,17 @@ def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():
     from conftest import scene_options
     from petsc4py import PETSc
 
-    from solver import consolidation
+    from conftest import typed
 
-    p = scene_options(cells="3,30")
-    jacobi_f1 = consolidation.fundamental_frequency(PETSc.COMM_SELF, p)
-    low = consolidation.JACOBI_MAX_DOFS
+    from solver import frequency
+
+    t = typed(scene_options(cells="3,30"))
+    jacobi_f1 = frequency.fundamental_frequency(PETSc.COMM_SELF, t.body, t.soil)
+    low = frequency.JACOBI_MAX_DOFS
     try:
-        consolidation.JACOBI_MAX_DOFS = 10
-        slepc_f1 = consolidation.fundamental_frequency(PETSc.COMM_SELF, p)
+        frequency.JACOBI_MAX_DOFS = 10
+        slepc_f1 = frequency.fundamental_frequency(PETSc.COMM_SELF, t.body, t.soil)
     finally:
-        consolidation.JACOBI_MAX_DOFS = low
+        frequency.JACOBI_MAX_DOFS = low
     assert slepc_f1 == pytest.approx(jacobi_f1, rel=1e-9)
     assert slepc_f1 == pytest.approx(16.89, rel=2e-3)      # the column's f1 (Table 3)

@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from conftest import check_ok
 
-from solver import analytic, assembly
+from solver import analytic
+from solver.soil import constrained_modulus
 
 REPORTS = (0.05, 0.2, 0.5)
 REPORT_ARGS = ["-mpm_Tv_end", "0.5", "-mpm_Tv_report", ",".join(map(str, REPORTS)),
@@ -31,7 +32,7 @@ def profiles(out_dir):
 def compressible(o):
     """(c2 / c_v, p0 / q) of the options ``o`` (the summary's): Terzaghi's form with
     compressible water, at the run's time factor T_v = c_v t / H^2."""
-    E_c = assembly.constrained_modulus(o["E"], o["nu"])
+    E_c = constrained_modulus(o["E"], o["nu"])
     gw = o["rho_l"] * 9.81
     cv = analytic.consolidation_coefficient(o["k"], E_c, gw)
     c2 = analytic.consistent_coefficient(o["k"], E_c, gw, o["K_l"], o["porosity"])

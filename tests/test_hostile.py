@@ -11,7 +11,7 @@ from __future__ import annotations
 import random
 
 import pytest
-from conftest import REPO, clean_env
+from conftest import REPO, clean_env, typed
 
 JUNK = ["", "nan", "inf", "-inf", "1e31", "-1e31", "-1", "0", "abc", "1,2,3", ",", "1e-320",
         "99999999999", "0x10", "1..2", "  ", "true", "-0", "1,nan", "q5", "4,", ",4"]
@@ -169,7 +169,7 @@ def test_non_finite_values_are_caught():
     import numpy as np
     from petsc4py import PETSc
 
-    from solver import assembly, options, scene
+    from solver import options
     from solver.errors import NumericalError
     from solver.grid import Grid
     from solver.points import place
@@ -184,12 +184,12 @@ def test_non_finite_values_are_caught():
     finally:
         db.delValue("mpm_analysis")
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, scene.mixture_density(p), "uniform", point_fields(p))
+    t = typed(p)
+    points = place(grid, p.ppc, t.soil.density, "uniform", point_fields(t.scheme))
     with points.fields("J", "id") as (J, ids):
         J[:] = 1.0
         ids[:] = np.arange(len(ids))
-    model = TwoPhase(grid, points, p, scene.boundary_conditions(p),
-                     assembly.step_scheme(p))
+    model = TwoPhase(grid, points, t.soil, t.body, t.loading, t.scheme)
     model.check(1, 0.0, 1e4)                      # a sound state passes
     with points.fields("p") as pp:
         pp[3] = np.nan

@@ -31,16 +31,18 @@ def _consistent_errors(s):
 
 # -- implicit drag: Darcy's law -------------------------------------------------------------
 def _model(**opts):
-    from solver import assembly, scene, twophase
+    from conftest import typed
+
+    from solver import twophase
     from solver.grid import Grid
     from solver.points import place
     from test_step_reference import _params
 
     p = _params(**opts)
+    t = typed(p)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, scene.mixture_density(p), p.points, twophase.point_fields(p))
-    model = twophase.TwoPhase(grid, points, p, scene.boundary_conditions(p),
-                              assembly.step_scheme(p))
+    points = place(grid, p.ppc, t.soil.density, p.points, twophase.point_fields(t.scheme))
+    model = twophase.TwoPhase(grid, points, t.soil, t.body, t.loading, t.scheme)
     return p, grid, points, model
 
 

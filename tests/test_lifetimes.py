@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import pytest
-from conftest import ONE_AND_TWO_RANKS, scene_options
+from conftest import ONE_AND_TWO_RANKS, scene_options, typed
 from petsc4py import PETSc
 
 from solver import assembly, scene
 from solver.grid import Grid
-from solver.twophase import TwoPhase
+from solver.twophase import TwoPhase, point_fields
+
+
+def _body_soil(p):
+    t = typed(p)
+    return t.body, t.soil
 
 
 @ONE_AND_TWO_RANKS
 def test_build_returns_what_destroy_destroys(ranks):
     assert PETSc.COMM_WORLD.getSize() == ranks
-    made = scene.build(PETSc.COMM_WORLD, scene_options())
+    made = scene.build(PETSc.COMM_WORLD, *_body_soil(scene_options()))
     grid, points, K, M, free = made
     assert K.handle and M.handle and free.handle and grid.da.handle
     scene.destroy(*reversed(made))
@@ -37,7 +42,7 @@ def test_a_failed_build_destroys_what_it_made(monkeypatch, ranks):
     monkeypatch.setattr(Grid, "destroy", destroy)
     monkeypatch.setattr(assembly, "stiffness_and_mass", fail)
     with pytest.raises(RuntimeError, match="assembly failed"):
-        scene.build(PETSc.COMM_WORLD, scene_options())
+        scene.build(PETSc.COMM_WORLD, *_body_soil(scene_options()))
     assert len(made) == 1 and not made[0].da.handle
 
 
@@ -45,9 +50,10 @@ def test_a_failed_build_destroys_what_it_made(monkeypatch, ranks):
 def test_two_phase_body_and_model_as_with_blocks(ranks):
     assert PETSc.COMM_WORLD.getSize() == ranks
     p = scene_options()
-    grid, points = scene.two_phase_body(PETSc.COMM_WORLD, p)
-    with grid, points, TwoPhase(grid, points, p, scene.boundary_conditions(p),
-                                assembly.step_scheme(p)) as model:
+    t = typed(p)
+    grid, points = scene.two_phase_body(PETSc.COMM_WORLD, t.body, t.soil,
+                                        point_fields(t.scheme))
+    with grid, points, TwoPhase(grid, points, t.soil, t.body, t.loading, t.scheme) as model:
         x, x0, J, ids = points.get("x", "x0", "J", "id")
         assert (x == x0).all() and (J == 1).all()
         # ids number the points 0 .. n - 1 over all ranks, once each.
@@ -72,23 +78,23 @@ def test_stage_is_popped_when_its_block_raises():
 
 
 def test_slepc_solver_is_destroyed_when_the_solve_fails(monkeypatch):
-    from solver import eigen
+    from solver import frequency
     from solver.errors import NumericalError
 
-    made = scene.build(PETSc.COMM_WORLD, scene_options(analysis="eigen"))
+    made = scene.build(PETSc.COMM_WORLD, *_body_soil(scene_options(analysis="eigen")))
     _, _, K, M, _ = made
     solvers = []
-    configure = eigen._configure
+    configure = frequency._configure
 
     def keep(eps, *args):
         solvers.append(eps)
         configure(eps, *args)
 
-    monkeypatch.setattr(eigen, "_configure", keep)
+    monkeypatch.setattr(frequency, "_configure", keep)
     try:
         # More modes than the model has: SLEPc converges fewer than asked.
         with pytest.raises(NumericalError, match="SLEPc converged"):
-            eigen.slepc_solve(K, M, K.getSize()[0] + 5)
+            frequency.slepc_solve(K, M, K.getSize()[0] + 5)
     finally:
         scene.destroy(*reversed(made))
     assert len(solvers) == 1 and not solvers[0].handle

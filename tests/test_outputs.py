@@ -434,7 +434,7 @@ def test_restart_continues_series_and_settlement(cli, tmp_path):
 
 
 class _Points:
-    """What consolidation.Depths reads of the material points: views and a generation."""
+    """What reporting.Depths reads of the material points: views and a generation."""
 
     def __init__(self, **fields):
         self.fields, self.generation = fields, 0
@@ -454,7 +454,7 @@ def test_report_errors_at_scale_cost_little_memory():
     from mpi4py import MPI
 
     from solver import analytic
-    from solver.consolidation import Depths
+    from solver.reporting import Depths
 
     n, H, q = 200_000, 1.0, 1e4
     rng = np.random.default_rng(3)

@@ -117,7 +117,9 @@ def test_other_soils(runs, soil, element):
 def _linearised(element, cells, **scheme):
     from petsc4py import PETSc
 
-    from solver import assembly, options, scene, timestep
+    from conftest import typed
+
+    from solver import options, timestep
     from solver.grid import Grid
     from solver.points import place
 
@@ -131,9 +133,10 @@ def _linearised(element, cells, **scheme):
         for key in given:
             db.delValue("mpm_" + key)
     grid = Grid(PETSc.COMM_SELF, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, scene.mixture_density(p), "uniform")
+    t = typed(p)
+    points = place(grid, p.ppc, t.soil.density, "uniform")
     try:
-        return p, timestep._linear_step(grid, points, p, assembly.step_scheme(p))
+        return p, timestep._linear_step(grid, points, t.body, t.soil, t.scheme)
     finally:
         points.destroy()
 

@@ -208,9 +208,9 @@ def _signal_in(monkeypatch, target, signum):
 
 @pytest.mark.parametrize("target, signum, stage", [
     ("solver.timestep.discrete_limit", signal.SIGINT, "set-up: the stability analysis"),
-    ("solver.consolidation.fundamental_frequency", signal.SIGTERM,
+    ("solver.frequency.fundamental_frequency", signal.SIGTERM,
      "set-up: the fundamental frequency f1"),
-    ("solver.assembly.step_scheme", signal.SIGINT, "set-up: the time scheme and mass scaling")])
+    ("solver.inertia.scaling", signal.SIGINT, "set-up: the time scheme and mass scaling")])
 def test_signal_in_the_set_up(cli, tmp_path, monkeypatch, target, signum, stage):
     _signal_in(monkeypatch, target, signum)
     res = cli(QUIET + ["-mpm_mass_scaling", "auto"], options_file=M1, out_dir=tmp_path)
@@ -230,7 +230,7 @@ def test_signal_in_the_set_up(cli, tmp_path, monkeypatch, target, signum, stage)
 def test_signal_in_the_reporting_checkpoints_the_whole_run(cli, tmp_path, monkeypatch):
     """A signal after the last step, while the results are written: exit 4, a checkpoint
     of the whole run, from which -mpm_restart alone does the reporting again."""
-    _signal_in(monkeypatch, "solver.consolidation._write_files", signal.SIGTERM)
+    _signal_in(monkeypatch, "solver.reporting.write_files", signal.SIGTERM)
     res = cli(QUIET + ["-mpm_Tv_end", "0.02"], options_file=M1, out_dir=tmp_path)
     assert res.returncode == 4, res.stderr
     ckpt = tmp_path / "checkpoint.npz"

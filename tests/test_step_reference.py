@@ -17,13 +17,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import check_ok, scene_options
+from conftest import check_ok, scene_options, typed
 from petsc4py import PETSc
 
 from solver import assembly, kernels, scene, twophase
 from solver.grid import Grid
 from solver.points import place
-from solver.timestep import impermeable, mixture_density, wave_speeds
+from solver.soil import Soil
 
 
 def _params(**opts):
@@ -38,9 +38,10 @@ def _dampers(p, grid, S):
     """Bulk viscosity eta (Pa s) and the fast-part damping's rates 2 zeta w1 and w1 (1/s),
     from their definitions (options help): eta = b1 rho_m c1 h, w1 = 2 pi c1 / (4 H), with
     the inertia scaled by S."""
-    c1 = float(wave_speeds(p, S)["c1"])
+    soil = Soil.from_options(p)
+    c1 = float(soil.wave_speeds(S)["c1"])
     w1 = 2 * np.pi * c1 / (4 * p.size[1])
-    return (p.bulk_viscosity * mixture_density(p) * S * c1 * min(grid.h),
+    return (p.bulk_viscosity * soil.density * S * c1 * min(grid.h),
             2 * p.fast_damping * w1, w1)
 
 
@@ -48,23 +49,23 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     """One step of the plain formulation on the state dict ``st`` (serial)."""
     x, V, vs, vl, sig, pp, J = (st[k] for k in ("x", "V", "vs", "vl", "sig", "pp", "J"))
     visc, vslow = st.get("visc"), st.get("vslow")
-    small = scheme["kinematics"] == "small"
+    small = scheme.kinematics == "small"
     n = p.porosity
-    D = assembly.elasticity(p.E, p.nu)
-    drag = twophase.drag_coefficient(p)
+    D = Soil.from_options(p).elasticity()
+    drag = Soil.from_options(p).drag_coefficient
     gvec = np.array([0.0, -p.gravity])
     ng = grid.gxm * grid.gym
     it = assembly.interpolation(grid, st["x0"] if small else x)
     N, dN, nodes = it.N, it.dNdx, it.nodes
-    w = assembly.lumping_weights(N, scheme["lumping"])
+    w = assembly.lumping_weights(N, scheme.lumping)
     # The liquid equation's weights and test functions: w and N, or N_hat for both.
-    if scheme["liquid_basis"] == "blended":
+    if scheme.liquid_basis == "blended":
         bl = assembly.interpolation(grid, st["x0"] if small else x, blended=True)
         wl, Nl, dNl = bl.N, bl.N, bl.dNdx
     else:
         wl, Nl, dNl = w, N, dN
     # Mass scaling multiplies the inertia; the weight (gravity terms below) stays physical.
-    S = scheme["mass_scaling"]
+    S = scheme.mass_scaling
     ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
     wm, wt = ms + ml, mt
     ms, ml, mt = S * ms, S * ml, S * mt
@@ -99,8 +100,10 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     fs = grid.constrained_mask(bcs).reshape(-1, 2)
     # Normal to an impermeable side the liquid is tied to the solid (no relative flux): both
     # move by the mixture's equation, and are held where the solid is.
-    tie = grid.constrained_mask(impermeable(p.drained)).reshape(-1, 2)
-    if scheme["drag"] == "explicit":
+    tie = grid.constrained_mask({s: c for s, c in {"left": "x", "right": "x", "bottom": "y",
+                                                   "top": "y"}.items()
+                                 if s not in p.drained}).reshape(-1, 2)
+    if scheme.drag == "explicit":
         al = (G[:, 10:12] - Q[:, None] * (vl_n - vs_n)) * inv(Mt)[:, None]
         as_ = (fm - Ml[:, None] * al) * inv(Ms)[:, None]
     else:
@@ -135,7 +138,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     J *= 1 + dt * div_s
     if visc is not None:
         visc[:] = eta * div_s
-    if scheme["pressure_projection"] == "nodal":
+    if scheme.pressure_projection == "nodal":
         # Lumped projection onto the nodes, back at the points' new positions.
         num = np.bincount(nodes.ravel(), weights=(w * (V * dp)[:, None]).ravel(), minlength=ng)
         den = np.bincount(nodes.ravel(), weights=(w * V[:, None]).ravel(), minlength=ng)
@@ -224,9 +227,10 @@ def test_step_matches_reference(opts):
         pytest.skip("serial reference")
     p = _params(**opts)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
-    points = place(grid, p.ppc, scene.mixture_density(p), "uniform", twophase.point_fields(p))
-    scheme = assembly.step_scheme(p)
-    bcs = scene.boundary_conditions(p)
+    t = typed(p)
+    points = place(grid, p.ppc, t.soil.density, "uniform", twophase.point_fields(t.scheme))
+    scheme = t.scheme
+    bcs = t.body.supports
     rng = np.random.default_rng(7)
     with points.fields("x", "x0", "vs", "vl", "stress", "p", "J") as (x, x0, vs, vl, sig, pp,
                                                                        J):
@@ -254,7 +258,7 @@ def test_step_matches_reference(opts):
             vslow[:] = rng.normal(size=vslow.shape) * 1e-4
         names["vslow"] = "vslow"
     ref = dict(zip(names, points.get(*names.values())))
-    model = twophase.TwoPhase(grid, points, p, bcs, scheme)
+    model = twophase.TwoPhase(grid, points, t.soil, t.body, t.loading, scheme)
     compiled = kernels.compile_counts()
     dt = 1e-6
     for k in range(3):
