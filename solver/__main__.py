@@ -163,7 +163,7 @@ def _run(argv, origins, scene_analysis, comm) -> int:
         params, moved = _own_folder(params, scene_analysis)
         for note in params.notes + moved:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
-        check_output(params, comm)
+        check_output(params.output, params.summary, comm)
         if params.analysis == "eigen":
             from . import eigen
 
@@ -256,19 +256,19 @@ def _own_folder(p, scene_analysis) -> tuple:
                f"{p.output}",)
 
 
-def check_output(p, comm) -> None:
+def check_output(folder, summary, comm) -> None:
     """InputError on every rank, before anything is computed, when the results cannot be
-    written where ``-mpm_output`` and ``-mpm_summary`` send them. Rank 0, the one that
-    writes, tries and tells the others."""
+    written where ``-mpm_output`` (``folder``) and ``-mpm_summary`` (``summary``, '' for
+    the default) send them. Rank 0, the one that writes, tries and tells the others."""
     problem = None
     if comm.getRank() == 0:
-        problem = _unwritable(p.output, "-mpm_output")
-        if problem is None and p.summary:
-            if os.path.isdir(p.summary):
-                problem = f"-mpm_summary {p.summary}: a folder, not a file name"
+        problem = _unwritable(folder, "-mpm_output")
+        if problem is None and summary:
+            if os.path.isdir(summary):
+                problem = f"-mpm_summary {summary}: a folder, not a file name"
             else:
-                problem = _unwritable(os.path.dirname(p.summary) or ".", "-mpm_summary",
-                                      p.summary)
+                problem = _unwritable(os.path.dirname(summary) or ".", "-mpm_summary",
+                                      summary)
     problem = comm.tompi4py().bcast(problem, root=0)
     if problem:
         from .errors import InputError

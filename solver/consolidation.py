@@ -101,7 +101,7 @@ def run(p, comm) -> int:
     handling (its checkpoint needs the points)."""
     ctx = RunFailure(comm)
     try:
-        return _handled(comm, ctx, lambda: _run(p, comm, ctx))
+        return _handled(comm, ctx, lambda: _run(_set_up(p, comm, ctx), comm, ctx))
     finally:
         scene.destroy(*reversed(ctx.owned))
 
@@ -133,10 +133,11 @@ def _handled(comm, ctx, work) -> int:
     raise failure
 
 
-def _run(p, comm, ctx) -> int:
-    """The run itself (see :func:`run`): :func:`_set_up`, :func:`_time_loop` and
-    :func:`_finish`; ``ctx`` follows it for the failure handler."""
-    plan, grid, points, state, t_wall = _set_up(p, comm, ctx)
+def _run(setup, comm, ctx) -> int:
+    """The run itself (see :func:`run`) after :func:`_set_up` (``setup``, what it
+    returned): :func:`_time_loop` and :func:`_finish`; ``ctx`` follows it for the failure
+    handler."""
+    plan, grid, points, state, t_wall = setup
     signals.stage("set-up: the model and the summary")
     model = TwoPhase(grid, points, plan.soil, plan.body, plan.loading, plan.scheme)
     ctx.owned.append(model)
@@ -205,16 +206,19 @@ def _set_up(p, comm, ctx) -> tuple:
     if restart is not None:
         checkpoint.scatter(points, grid, restart[0], restart[1],
                            "x0" if scheme.kinematics == "small" else "x")
-    limits, patch = _critical_steps(comm, body, soil, scheme, grid.h, p)
+    limits, patch = _critical_steps(comm, body, soil, scheme, grid.h, p.stability_analysis,
+                                    (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps))
     given = None if math.isnan(p.dt) else p.dt
     state.dt = state.dt if restart is not None else _choose_dt(limits, given, p.dt_safety)
-    _print_limits(comm, limits, state.dt, soil, body, scheme, patch,
+    reporting.print_limits(comm, limits, state.dt, soil, body, scheme, patch,
                   "given by -mpm_dt" if given else f"{p.dt_safety} x {limits.governing}")
     limits = _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
                        p.allow_unstable)
     signals.stage("set-up: the step counts")
     refs = References.of(soil, loading, body.height)
-    schedule = _schedule(refs, state.dt, p)
+    schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
+                        p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
+                        p.checkpoint_seconds, p.progress)
     plan = Plan(soil=soil, body=body, loading=loading, scheme=scheme, schedule=schedule,
                 refs=refs, limits=limits,
                 outputs=Outputs(p.output, summary_path, p.figures, p.figure_format),
@@ -261,16 +265,16 @@ def _monitor_height(points, H, wanted, mpi) -> float:
     return float(target)
 
 
-def _critical_steps(comm, body, soil, scheme, h, p) -> tuple:
+def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
     """(the critical time steps as :class:`Limits`, f1 and the governing one set, and the
     patch of the stability analysis), in the log stage "Critical time steps"; ``h`` the
-    cell sizes (m); ``p`` the options (the f1 solver's and the analysis's switch)."""
+    cell sizes (m); ``stability``: run the stability analysis; ``f1_solver`` (solver,
+    tolerance, sweeps) the arguments of :func:`frequency.fundamental_frequency`."""
     S = scheme.mass_scaling
     with PETSc.Log.Stage("Critical time steps"):
         signals.stage("set-up: the fundamental frequency f1")
         try:
-            f1 = frequency.fundamental_frequency(comm, body, soil, p.eigen_solver[0],
-                                                 p.jacobi_tol, p.jacobi_max_sweeps)
+            f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
         except NumericalError as exc:
             # f1 only feeds the spring-mass criterion, which does not bound stability (see
             # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
@@ -278,7 +282,7 @@ def _critical_steps(comm, body, soil, scheme, h, p) -> tuple:
             PETSc.Sys.Print(f"Note: no fundamental frequency, hence no oscillator "
                             f"criterion: {exc}", comm=comm)
             f1 = math.nan
-        if p.stability_analysis:
+        if stability:
             # A dense eigenvalue analysis: on large grids the longest part of the set-up.
             cells = timestep.analysis_cells(body.element, body.cells)
             signals.stage("set-up: the stability analysis")
@@ -329,21 +333,21 @@ def _check_dt(comm, limits, dt, soil, H, scheme, first_tv, allow_unstable) -> Li
                                warning=inertia.warning(regime) or "")
 
 
-def _schedule(refs, dt, p) -> Schedule:
-    """The number of steps and the report and isochrone steps of a run with step dt (s)
-    to T_v = -mpm_Tv_end; InputError for a run that would not finish."""
-    t_end = refs.time(p.Tv_end)
+def _steps(refs, dt, Tv_end, Tv_report) -> tuple:
+    """(the number of steps, the report steps, the isochrone steps ({step: T_v})) of a
+    run with step dt (s) to T_v = ``Tv_end`` reporting at ``Tv_report``; InputError for a
+    run that would not finish."""
+    t_end = refs.time(Tv_end)
     if not t_end / dt < MAX_STEPS:
-        raise InputError(f"-mpm_Tv_end {p.Tv_end}: {t_end / dt:.3g} steps of {dt:.3g} s; "
+        raise InputError(f"-mpm_Tv_end {Tv_end}: {t_end / dt:.3g} steps of {dt:.3g} s; "
                          f"more than {MAX_STEPS:.0e} is not a run that finishes")
     nsteps = int(math.ceil(t_end / dt - 1e-9))
     H, cv = refs.H, refs.c_v
-    report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in p.Tv_report}
+    report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in Tv_report}
     iso_steps = {int(round(tv * H * H / (cv * dt))): tv
-                 for tv in sorted(set(reporting.ISOCHRONES) | set(p.Tv_report))
-                 if tv <= p.Tv_end + 1e-12}
-    return Schedule(dt, nsteps, p.Tv_end, tuple(p.Tv_report), report_steps, iso_steps,
-                    p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress)
+                 for tv in sorted(set(reporting.ISOCHRONES) | set(Tv_report))
+                 if tv <= Tv_end + 1e-12}
+    return nsteps, report_steps, iso_steps
 
 
 def _print_plan(comm, plan, n_points):
@@ -581,29 +585,3 @@ def _check_feasible(p, scheme, soil, body):
     raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {estimate:.3g} steps to "
                      f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
                      "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))
-
-
-def _print_limits(comm, limits, dt, soil, body, scheme, patch, how):
-    """The critical time steps, each with its formula's numbers, and the step used (how
-    it was chosen: ``how``)."""
-    S, f1, H = scheme.mass_scaling, limits.f1, body.height
-    speeds = soil.wave_speeds(S)
-    scaled = "" if S == 1 else f", inertia scaled by S = {S:.4g}"
-    cells = frequency.f1_cells(body.element, body.cells)
-    coarser = "" if cells == tuple(body.cells) else f", on {cells[0]} x {cells[1]} cells"
-    notes = {"cfl": f"L/c, c = {speeds['c']:.4g} m/s{scaled}",
-             "undrained": f"L/c1, c1 = {speeds['c1']:.4g} m/s{scaled}",
-             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4g} m2/s",
-             "oscillator": f"L/c3, c3 = 2 pi f1 H = "
-                           f"{2 * np.pi * f1 / np.sqrt(S) * H:.4g} m/s "
-                           f"(f1 = {f1 / np.sqrt(S):.4g} Hz{scaled}{coarser})",
-             "drag": f"2/lambda, lambda = {soil.drag_rate(S):.4g} 1/s"
-                     + ("" if scheme.drag == "explicit"
-                        else " (no limit: the drag is implicit)"),
-             "discrete": "stability limit of the linearised MPM step itself"
-                         + ("" if tuple(patch) == tuple(body.cells)
-                            else f" (found on a {patch[0]} x {patch[1]} cell patch)")}
-    lines = ["Critical time steps (s):"]
-    lines += [f"  {k:<11s}{v:11.3e}   {notes[k]}" for k, v in limits.steps.items()]
-    lines.append(f"  used       {dt:11.3e}   ({how})")
-    PETSc.Sys.Print("\n".join(lines), comm=comm)

@@ -16,7 +16,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import analytic, jacobi, memory, output, provenance, signals
-from .errors import InputError, InternalError, Interrupted, NumericalError, agree, entry
+from .errors import InputError, InternalError, Interrupted, NumericalError, agree
 from .failure import RunFailure
 from .frequency import frequencies, slepc_solve
 from .plan import Outputs

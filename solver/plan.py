@@ -26,10 +26,10 @@ class Schedule:
 
     dt: float
     nsteps: int
-    Tv_end: float
-    Tv_report: tuple
     report_steps: dict
     iso_steps: dict
+    Tv_end: float
+    Tv_report: tuple
     output_every: int = 0
     checkpoint_every: int = 0
     checkpoint_seconds: float = 0.0

@@ -1,8 +1,9 @@
 """What a consolidation run reports: the monitor point, the profiles and their errors against
 the references, the tables, the CSV files and the figures (Figs 3-5).
 
-The time loop hands its results to a :class:`Reporting` at its steps; the run's end calls
-:func:`print_reports` and :func:`write_files`. Everything here takes the run's
+The set-up prints the critical time steps (:func:`print_limits`); the time loop hands its
+results to a :class:`Reporting` at its steps; the run's end calls :func:`print_reports` and
+:func:`write_files`. Everything here takes the run's
 :class:`solver.plan.Plan` or the few values it needs, never the options.
 """
 
@@ -13,7 +14,7 @@ import os
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, figures, output, settlement
+from . import analytic, figures, frequency, output, settlement
 from .fields import PointSeries
 
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
@@ -145,6 +146,32 @@ class Depths:
         if mpi.Get_size() > 1:
             mpi.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
         return [float(np.sqrt(e / sums[-1])) for e in sums[:-1]]
+
+
+def print_limits(comm, limits, dt, soil, body, scheme, patch, how):
+    """The critical time steps, each with its formula's numbers, and the step used (how
+    it was chosen: ``how``)."""
+    S, f1, H = scheme.mass_scaling, limits.f1, body.height
+    speeds = soil.wave_speeds(S)
+    scaled = "" if S == 1 else f", inertia scaled by S = {S:.4g}"
+    cells = frequency.f1_cells(body.element, body.cells)
+    coarser = "" if cells == tuple(body.cells) else f", on {cells[0]} x {cells[1]} cells"
+    notes = {"cfl": f"L/c, c = {speeds['c']:.4g} m/s{scaled}",
+             "undrained": f"L/c1, c1 = {speeds['c1']:.4g} m/s{scaled}",
+             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4g} m2/s",
+             "oscillator": f"L/c3, c3 = 2 pi f1 H = "
+                           f"{2 * np.pi * f1 / np.sqrt(S) * H:.4g} m/s "
+                           f"(f1 = {f1 / np.sqrt(S):.4g} Hz{scaled}{coarser})",
+             "drag": f"2/lambda, lambda = {soil.drag_rate(S):.4g} 1/s"
+                     + ("" if scheme.drag == "explicit"
+                        else " (no limit: the drag is implicit)"),
+             "discrete": "stability limit of the linearised MPM step itself"
+                         + ("" if tuple(patch) == tuple(body.cells)
+                            else f" (found on a {patch[0]} x {patch[1]} cell patch)")}
+    lines = ["Critical time steps (s):"]
+    lines += [f"  {k:<11s}{v:11.3e}   {notes[k]}" for k, v in limits.steps.items()]
+    lines.append(f"  used       {dt:11.3e}   ({how})")
+    PETSc.Sys.Print("\n".join(lines), comm=comm)
 
 
 def print_reports(comm, reports):

@@ -20,7 +20,7 @@ import pytest
 from conftest import check_ok, scene_options, typed
 from petsc4py import PETSc
 
-from solver import assembly, kernels, scene, twophase
+from solver import assembly, kernels, twophase
 from solver.grid import Grid
 from solver.points import place
 from solver.soil import Soil
