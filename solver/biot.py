@@ -58,7 +58,7 @@ import numpy as np
 import scipy.sparse as sp
 from petsc4py import PETSc
 
-from . import shapes
+from . import assembly, shapes
 from .errors import InputError, NumericalError
 from .grid import Grid
 from .options import BC_CHOICES
