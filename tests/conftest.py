@@ -271,6 +271,17 @@ def scene_options(**given):
     return options.from_mapping({"analysis": "consolidation", **given})
 
 
+def script_module(name):
+    """``scripts/<name>.py`` as a module (importing one runs nothing; its command is the
+    symlink ``scripts/<name with hyphens>``)."""
+    import importlib
+
+    folder = str(REPO / "scripts")
+    if folder not in sys.path:
+        sys.path.append(folder)
+    return importlib.import_module(name)
+
+
 def option_entries(help_text):
     """(invocation, help) of each option in argparse's --help output."""
     body = help_text.split("options:", 1)[1].splitlines()
