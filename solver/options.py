@@ -10,7 +10,9 @@ Every ``-mpm_`` value is fetched from the database by name (``getString``), whic
 used: ``-options_left`` then lists only options nobody read, such as a misspelt
 ``-eps_tpye``. The result of :func:`read` is frozen; a changed set of parameters is a new
 value (``dataclasses.replace``), so what the run uses is what was read and checked, plus
-changes that are visible where they are made.
+changes that are visible where they are made. :func:`from_mapping` gives the same value
+from ``{name: value}`` without the database (a study's or a test's scenes), through the
+same parsing and checks.
 """
 
 from __future__ import annotations
