@@ -10,7 +10,9 @@ Every ``-mpm_`` value is fetched from the database by name (``getString``), whic
 used: ``-options_left`` then lists only options nobody read, such as a misspelt
 ``-eps_tpye``. The result of :func:`read` is frozen; a changed set of parameters is a new
 value (``dataclasses.replace``), so what the run uses is what was read and checked, plus
-changes that are visible where they are made.
+changes that are visible where they are made. :func:`from_mapping` gives the same value
+from ``{name: value}`` without the database (a study's or a test's scenes), through the
+same parsing and checks.
 """
 
 from __future__ import annotations
@@ -321,14 +323,64 @@ def read(spec=None, db=None, origins=None, base=None):
     """
     from petsc4py import PETSc
 
-    spec = SPEC if spec is None else spec
-    by_name = {o.name: o for o in spec}
     db = PETSc.Options() if db is None else db
-    origins = origins or {}
     # getString marks the option used (getAll does not): -options_left then reports only
     # the options nobody read. PETSc returns "" for an option given without a value.
     given = {k[len(PREFIX):]: db.getString(k, "") for k in db.getAll() if k.startswith(PREFIX)}
+    return _assemble(SPEC if spec is None else spec, given, origins or {}, base or {})
 
+
+def from_mapping(values, base=None):
+    """The :data:`Params` that :func:`read` returns for a command line giving ``values``.
+
+    ``values`` is ``{name: value}``, names without ``mpm_``; a value is either the text the
+    command line would give (``"1,10"``) or a Python value of the option's kind (a float,
+    an int, a tuple for a list, a bool, a str; None for an option given without a value).
+    It is parsed and checked as that text, with the same :class:`InputError` texts; ``base``
+    is :func:`read`'s. PETSc's options database is neither read nor written, so a study or
+    a test can build the parameters of many scenes in one process.
+    """
+    return _assemble(SPEC, {name: _as_text(value) for name, value in values.items()}, {},
+                     base or {})
+
+
+def _as_text(value):
+    """A Python value as the command line writes it (None stays None: no value given)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (tuple, list)):
+        return ",".join(map(str, value))
+    return None if value is None else str(value)
+
+
+def _value(opt: Option, text):
+    """Option ``opt`` given as ``text`` (None or "" when given without a value), parsed and
+    checked."""
+    text = "" if text is None else str(text)
+    if opt.kind == "bool":
+        low = text.strip().lower()
+        if low in ("", "1", "true", "yes", "on"):
+            return True
+        if low in ("0", "false", "no", "off"):
+            return False
+        raise InputError(f"-{PREFIX}{opt.name}: '{text}' is not a boolean")
+    if text.strip() == "":
+        raise InputError(f"-{PREFIX}{opt.name}: needs a value")
+    try:
+        value = _parse(opt, text)
+    except ValueError as exc:
+        raise InputError(f"-{PREFIX}{opt.name}: '{text}': {exc}") from None
+    problem = _check_value(opt, value)
+    if problem:
+        raise InputError(f"-{PREFIX}{opt.name} {_describe(opt, value)}: {problem}")
+    return value
+
+
+def _assemble(spec, given: dict, origins: dict, base: dict):
+    """The Params of the options ``given`` ({name: text}) over ``base`` or the defaults:
+    :func:`read` after the database is read, shared with :func:`from_mapping`."""
+    by_name = {o.name: o for o in spec}
+    given = dict(given)
     for name in given:
         if name not in by_name:
             near = difflib.get_close_matches(name, list(by_name), n=1)
@@ -336,33 +388,13 @@ def read(spec=None, db=None, origins=None, base=None):
             raise InputError(f"-{PREFIX}{name}: unknown option{hint}")
 
     values = {}
-    base = base or {}
     for opt in spec:
-        if opt.name not in given:
-            values[opt.name] = _from_json(opt, base[opt.name]) if opt.name in base \
-                else opt.default
-            continue
-        # PETSc stores an option given without a value as None (or "").
-        text = "" if given[opt.name] is None else str(given[opt.name])
-        if opt.kind == "bool":
-            low = text.strip().lower()
-            if low in ("", "1", "true", "yes", "on"):
-                values[opt.name] = True
-            elif low in ("0", "false", "no", "off"):
-                values[opt.name] = False
-            else:
-                raise InputError(f"-{PREFIX}{opt.name}: '{text}' is not a boolean")
-            continue
-        if text.strip() == "":
-            raise InputError(f"-{PREFIX}{opt.name}: needs a value")
-        try:
-            value = _parse(opt, text)
-        except ValueError as exc:
-            raise InputError(f"-{PREFIX}{opt.name}: '{text}': {exc}") from None
-        problem = _check_value(opt, value)
-        if problem:
-            raise InputError(f"-{PREFIX}{opt.name} {_describe(opt, value)}: {problem}")
-        values[opt.name] = value
+        if opt.name in given:
+            values[opt.name] = _value(opt, given[opt.name])
+        elif opt.name in base:
+            values[opt.name] = _from_json(opt, base[opt.name])
+        else:
+            values[opt.name] = opt.default
 
     analysis = values["analysis"]
     unused = [name for name in given if analysis not in by_name[name].used_by]

@@ -145,25 +145,8 @@ def read_scene(path: str, extra=()):
     """The options of scene file ``path`` with ``extra`` (``["-mpm_k", "1e-9", ...]``) on
     top, read and checked as the solver reads them (for a study that derives its runs'
     settings from the scene, e.g. the mass-scaling factor or the wave period)."""
-    import petsc4py
-
-    petsc4py.init([])
-    from petsc4py import PETSc
-
     from . import options
 
-    pairs = []
-    with open(path) as fh:
-        for line in fh:
-            tok = line.split("#", 1)[0].split()
-            if tok:
-                pairs.append((tok[0], tok[1] if len(tok) > 1 else ""))
-    pairs += list(zip(extra[0::2], extra[1::2]))
-    db = PETSc.Options()
-    for key, val in pairs:
-        db.setValue(key, val)
-    try:
-        return options.read(db=db)
-    finally:
-        for key, _ in pairs:
-            db.delValue(key)
+    pairs = options._file_pairs(path) + options._pairs(list(extra))
+    return options.from_mapping({name[len(options.PREFIX):]: value for name, value in pairs
+                                 if name.startswith(options.PREFIX)})

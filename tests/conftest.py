@@ -263,22 +263,23 @@ def tmp_path_factory(tmp_path_factory):
 
 
 def scene_options(**given):
-    """The solver's options (``options.read``) of a scene given as keywords (``cells="1,10"``),
-    a consolidation scene unless ``analysis`` says otherwise, read in-process as from a
-    command line; PETSc's database is left as it was found."""
-    from petsc4py import PETSc
-
+    """The solver's options (``options.from_mapping``) of a scene given as keywords
+    (``cells="1,10"``), a consolidation scene unless ``analysis`` says otherwise, read as
+    from a command line; PETSc's database is not touched."""
     from solver import options
 
-    db = PETSc.Options()
-    given = {"analysis": "consolidation", **given}
-    for key, value in given.items():
-        db.setValue("mpm_" + key, str(value))
-    try:
-        return options.read(db=db)
-    finally:
-        for key in given:
-            db.delValue("mpm_" + key)
+    return options.from_mapping({"analysis": "consolidation", **given})
+
+
+def script_module(name):
+    """``scripts/<name>.py`` as a module (importing one runs nothing; its command is the
+    symlink ``scripts/<name with hyphens>``)."""
+    import importlib
+
+    folder = str(REPO / "scripts")
+    if folder not in sys.path:
+        sys.path.append(folder)
+    return importlib.import_module(name)
 
 
 def option_entries(help_text):

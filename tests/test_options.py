@@ -249,3 +249,82 @@ def test_cases_files_parse():
         p = read(values)
         assert p.element == element and p.cells == (1, 10)
         assert p.ppc == (2 if element == "q4" else 3)
+
+
+# -- options.from_mapping: the same Params without PETSc's database -------------------------
+def _from_command_line(argv):
+    from solver import options
+
+    with options.command_line(["solver", *argv]):
+        return options.read()
+
+
+@pytest.mark.parametrize("scene", ["consolidation-m1-q4", "consolidation-m2-q4",
+                                   "consolidation-m1-q9", "eigen-q8"])
+def test_from_mapping_equals_read_over_a_command_line(scene):
+    """A scene file's words as a mapping, and the values read back as Python values, give
+    the Params the command line gives (the command line with an override on top)."""
+    from petsc4py import PETSc
+
+    from solver import options
+
+    path = str(REPO / "cases" / f"{scene}.opts")
+    argv = ["-options_file", path, "-mpm_cells", "2,20", "-mpm_figures", "0"]
+    expected = _from_command_line(argv)
+    words = {name[len("mpm_"):]: value for name, value in options._file_pairs(path)}
+    before = PETSc.Options().getAll()
+    got = options.from_mapping({**words, "cells": "2,20", "figures": "0"})
+    assert PETSc.Options().getAll() == before
+    assert got == expected and got.cells == (2, 20) and got.figures is False
+    assert got.given == expected.given and "cells" in got.given
+    assert (got.from_file, got.notes) == ({}, ())
+    # Python values of each option's kind: floats, ints, tuples, bools, strs.
+    typed = {name: getattr(expected, name) for name in expected.given}
+    assert options.from_mapping(typed) == expected
+    assert PETSc.Options().getAll() == before
+
+
+def test_from_mapping_keeps_the_base_and_the_defaults():
+    from solver import options
+
+    base = {"E": 2e7, "Tv_report": [0.1, 0.2], "dt": None}
+    p = options.from_mapping({"analysis": "consolidation", "nu": 0.25}, base=base)
+    assert (p.E, p.Tv_report, p.nu) == (2e7, (0.1, 0.2), 0.25) and p.dt != p.dt
+    assert p.given == ("analysis", "nu") and p.ppc == 2       # the default
+    assert options.from_mapping({}) == read({})
+
+
+@pytest.mark.parametrize("values", [
+    {"E": "-1e6"}, {"E": "nan"}, {"cells": "1,,10"}, {"cells": "1.5,10"}, {"nu": ""},
+    {"figures": "maybe"}, {"elemnt": "q4"}, {"k": "1e-4"}, {"eigen_solver": "jacobi,jacobi"},
+])
+def test_from_mapping_rejects_with_reads_message(values):
+    from petsc4py import PETSc
+
+    from solver import options
+    from solver.errors import InputError
+
+    with pytest.raises(InputError) as by_read:
+        read(values)
+    before = PETSc.Options().getAll()
+    with pytest.raises(InputError) as by_mapping:
+        options.from_mapping(values)
+    assert str(by_mapping.value) == str(by_read.value)
+    assert by_mapping.value.exit_code == 2
+    assert PETSc.Options().getAll() == before
+
+
+@pytest.mark.parametrize("values, text", [
+    ({"E": -1e6}, "-mpm_E -1000000.0: must be > 0"),
+    ({"cells": (0, 10)}, "-mpm_cells 0,10: every entry must be >= 1"),
+    ({"ppc": 2.5}, "-mpm_ppc: '2.5': not an integer"),
+    ({"E": float("inf")}, "-mpm_E: 'inf': not a finite number"),
+    ({"element": "q5"}, "-mpm_element q5: unknown value 'q5' (choose from q4, q8, q9)"),
+])
+def test_from_mapping_checks_python_values(values, text):
+    from solver import options
+    from solver.errors import InputError
+
+    with pytest.raises(InputError) as info:
+        options.from_mapping(values)
+    assert str(info.value) == text

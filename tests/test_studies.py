@@ -13,7 +13,8 @@ import subprocess
 
 import numpy as np
 import pytest
-from conftest import PYTHON, REPO, check_ok, clean_env, option_entries, run_command
+from conftest import (PYTHON, REPO, check_ok, clean_env, option_entries, run_command,
+                      script_module)
 
 from solver import output, study, workprecision
 
@@ -317,15 +318,7 @@ def test_convergence_study_publishes_the_shipped_data_only_for_the_whole_study(t
 
 
 def _convergence_module():
-    import importlib.machinery
-    import importlib.util
-
-    loader = importlib.machinery.SourceFileLoader("convergence_study",
-                                                  str(REPO / "scripts" / "convergence-study"))
-    spec = importlib.util.spec_from_loader(loader.name, loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    return script_module("convergence_study")
 
 
 def test_convergence_orders_read_as_orders_or_not_converging():
