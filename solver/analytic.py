@@ -263,7 +263,7 @@ def _mean_images(T):
 # each jump J at x_k by J erfc / 2 and each kink (slope change D) by D s ierfc(|x - x_k| / s) / 2,
 # s = 2 sqrt(Tv).
 
-def _column_ends(drained):
+def drained_ends(drained):
     """(base drained, top drained) from the drained sides ("top", "bottom")."""
     sides = set(drained)
     if sides - {"top", "bottom"}:
@@ -391,7 +391,7 @@ def column_pressure(y, Tv, H: float = 1.0, drained=("top",), p_top: float = 1.0,
     through in blocks of bounded size (memory O(points)); heights outside [0, H] take the
     continued solution (odd about a drained end, even about an impermeable one).
     """
-    base, top = _column_ends(drained)
+    base, top = drained_ends(drained)
     f0 = float(p_top if p_base is None else p_base)
     f1 = float(p_top) - f0
     x = np.asarray(y, dtype=float) / H
@@ -426,7 +426,7 @@ def column_mean(Tv, drained=("top",), p_top: float = 1.0, p_base=None):
     mode series (integral_0^1 sin(M xi) = (1 - cos M) / M, of cos(M xi) = sin M / M) where
     Tv >= 0.007, the depth integral of the image form below (erfc integrates to s ierfc,
     s ierfc to s^2 i2erfc, i2erfc(w) = ((1 + 2 w^2) erfc(w) - 2 w exp(-w^2) / sqrt(pi)) / 4)."""
-    base, top = _column_ends(drained)
+    base, top = drained_ends(drained)
     f0 = float(p_top if p_base is None else p_base)
     f1 = float(p_top) - f0
     T = np.asarray(Tv, dtype=float)
