@@ -244,3 +244,255 @@ def _mean_images(T):
         x = m / s
         U += 4 * s * (-1) ** m * (np.exp(-x * x) / math.sqrt(math.pi) - x * _erfc(x))
     return U
+
+
+# -- A uniform column drained on any set of its ends, under a linear initial excess ---------
+#
+# The excess pore pressure u over hydrostatic (water table at the surface) of a uniform column
+# of height H obeys u_t = c u_yy, u = 0 at a drained end and u_y = 0 at an impermeable one,
+# from an initial excess linear in height (a load: uniform; self-weight: zero at the surface,
+# largest at the base; both: their sum). In xi = y / H and the time factor Tv = c t / H^2 (H
+# the column height whatever the drainage; the drainage path enters the eigenvalues) it is
+# sum_j a_j X_j(xi) exp(-M_j^2 Tv) with
+#   drained base only   X = sin(M xi),  M = (j + 1/2) pi
+#   drained top only    X = cos(M xi),  M = (j + 1/2) pi
+#   drained both ends   X = sin(M xi),  M = (j + 1) pi
+#   no drained end      X = cos(M xi),  M = j pi
+# and, below _T_IMAGE, the image form: the initial excess continued oddly about a drained end
+# and evenly about an impermeable one is piecewise linear on the line, and heat flow smooths
+# each jump J at x_k by J erfc / 2 and each kink (slope change D) by D s ierfc(|x - x_k| / s) / 2,
+# s = 2 sqrt(Tv).
+
+def drained_ends(drained):
+    """(base drained, top drained) from the drained sides ("top", "bottom")."""
+    sides = set(drained)
+    if sides - {"top", "bottom"}:
+        raise ValueError(f"a 1D column drains through its top and bottom only, not "
+                         f"{sorted(sides - {'top', 'bottom'})}: lateral drainage is 2D")
+    return "bottom" in sides, "top" in sides
+
+
+def _column_modes(base, top, j):
+    """Wavenumbers M_j and the exact sin M_j, cos M_j of the column's modes j (int array)."""
+    half = base != top
+    M = (j + (0.5 if half else (1.0 if base else 0.0))) * np.pi
+    sign = np.where(j % 2 == 0, 1.0, -1.0)
+    if half:
+        return M, sign, np.zeros_like(M)
+    return M, np.zeros_like(M), -sign if base else sign
+
+
+def _column_coefficients(base, top, j, f0, f1):
+    """a_j of f0 + f1 xi in the modes j: (1 / |X|^2) integral_0^1 (f0 + f1 xi) X dxi."""
+    M, s, c = _column_modes(base, top, j)
+    Ms = np.where(M > 0, M, 1.0)
+    if base:                                    # X = sin(M xi)
+        return 2 * (f0 * (1 - c) / Ms + f1 * (s / Ms ** 2 - c / Ms))
+    a = 2 * (f0 * s / Ms + f1 * (c / Ms ** 2 + s / Ms - 1 / Ms ** 2))
+    return np.where(M > 0, a, f0 + f1 / 2)      # X = cos(M xi); the mean for M = 0
+
+
+def _column_terms(base, top, T):
+    """Modes whose tail is below TOLERANCE x (|f0| + |f1|) at every time factor >= T:
+    |a_j| <= 4 (|f0| + |f1|) / M_j (the closed forms above, M_j >= pi / 2), and M_j^2 grows
+    by at least 2 pi M_n from mode n on, so the tail from n is below
+    4 (|f0| + |f1|) exp(-M_n^2 T) / (M_n (1 - q)), q = exp(-2 pi M_n T)."""
+    n = 1
+    while True:
+        M = float(_column_modes(base, top, np.array([n]))[0][0])
+        q = math.exp(-2 * math.pi * M * T)
+        if 4 / M * math.exp(-M * M * T) <= TOLERANCE * (1 - q):
+            return n
+        n += 1
+
+
+def _column_fold(x, base, top):
+    """x = y / H folded into [0, 1] and the sign of the continued excess there: odd about a
+    drained end, even about an impermeable one."""
+    s0, s1 = (-1.0 if base else 1.0), (-1.0 if top else 1.0)
+    n2 = np.floor(x / 2)
+    r = x - 2 * n2
+    sign = np.where(np.mod(n2, 2) == 0, 1.0, s0 * s1)
+    far = r > 1
+    return np.where(far, 2 - r, r), np.where(far, sign * s1, sign)
+
+
+def _column_singularities(base, top, f0, f1, T):
+    """Integers x_k near [0, 1] at which the continued initial excess jumps (J_k) or kinks
+    (slope change D_k), enough of them that the images left out sum below TOLERANCE x
+    (|f0| + |f1|) for time factors up to T (|J| <= 2 (|f0| + |f1|), |D| <= 2 |f1|, and s
+    ierfc(w) <= erfc(w) <= erfc(m / s) beyond m). The continuation is linear between
+    integers, so two samples on each side give its limits and slopes there."""
+    s = 2 * math.sqrt(T)
+    m = 1
+    while 8 * math.erfc(m / s) > TOLERANCE:
+        m += 1
+    k = np.arange(-m, m + 2, dtype=float)
+
+    def F(x):
+        xi, sign = _column_fold(x, base, top)
+        return sign * (f0 + f1 * xi)
+    jump = (2 * F(k + 0.25) - F(k + 0.5)) - (2 * F(k - 0.25) - F(k - 0.5))
+    kink = 4 * (F(k + 0.5) - F(k + 0.25)) - 4 * (F(k - 0.25) - F(k - 0.5))
+    return k, jump, kink
+
+
+def _ierfc(w):
+    return np.exp(-w * w) / math.sqrt(math.pi) - w * _erfc(w)
+
+
+def _i2erfc(w):
+    return 0.25 * ((1 + 2 * w * w) * _erfc(w) - 2 * w * np.exp(-w * w) / math.sqrt(math.pi))
+
+
+def _column_images(xi, T, base, top, f0, f1):
+    """The excess at xi in [0, 1] and time factors T > 0 (below _T_IMAGE) from the images:
+    f(xi) - sum_{x_k <= 0} J_k erfc((xi - x_k) / s) / 2 + sum_{x_k >= 1} J_k erfc((x_k - xi)
+    / s) / 2 + sum_k D_k s ierfc(|xi - x_k| / s) / 2."""
+    s = 2 * np.sqrt(T)
+    acc = f0 + f1 * xi
+    for x, J, D in zip(*_column_singularities(base, top, f0, f1, float(T.max()))):
+        w = np.abs(xi - x) / s
+        acc = acc + (J / 2) * _erfc(w) * (-1.0 if x <= 0 else 1.0) + (D / 2) * s * _ierfc(w)
+    return acc
+
+
+def _column_series(xi, T, base, top, f0, f1):
+    """The excess at xi and time factors T from the modes _column_terms asks for."""
+    T = T[0] if T.min() == T.max() else T
+    j = np.arange(_column_terms(base, top, float(np.min(T))))
+    M = _column_modes(base, top, j)[0]
+    a = _column_coefficients(base, top, j, f0, f1)
+    trig = np.sin if base else np.cos
+    acc = np.zeros_like(xi)
+    for Mj, aj in zip(M, a):
+        acc += aj * np.exp(-Mj * Mj * T) * trig(Mj * xi)
+    return acc
+
+
+def column_pressure(y, Tv, H: float = 1.0, drained=("top",), p_top: float = 1.0,
+                    p_base=None):
+    """Excess pore pressure over hydrostatic (Pa, or the units of p_top) at heights ``y`` (m,
+    up from the base, as the MPM's points are) of a uniform column of height H (m) drained
+    at the sides in ``drained`` (a subset of "top", "bottom"; empty: no drainage),
+    impermeable at the others, from an undrained initial excess linear in height: p_top at
+    the surface, p_base at the base (None: p_top, a uniform load). :func:`undrained_excess`
+    gives them for a load, self-weight or both, with or without compressible water.
+
+    ``Tv`` = c t / H^2 (dimensionless) with H the column height whatever the drainage (the
+    MPM's T_v; the drainage path enters the modes) and c the diffusivity of the form:
+    c_v = k E_c / gamma_w (classic) or c2 (compressible water: evaluate at T_v c2 / c_v).
+    Drained at the top only with p_base None this is :func:`terzaghi` at depth H - y;
+    drained at both ends, Terzaghi on H / 2 at 4 Tv from the nearer end.
+
+    Accurate to TOLERANCE x (|p_top| + |p_base - p_top|) at every Tv > 0: the mode series
+    with the terms its tail bound asks for where Tv >= 0.007, the image form below; at
+    Tv <= 0 the initial excess (0 at a drained end). ``y`` and ``Tv`` broadcast; points go
+    through in blocks of bounded size (memory O(points)); heights outside [0, H] take the
+    continued solution (odd about a drained end, even about an impermeable one).
+    """
+    base, top = drained_ends(drained)
+    f0 = float(p_top if p_base is None else p_base)
+    f1 = float(p_top) - f0
+    x = np.asarray(y, dtype=float) / H
+    T = np.asarray(Tv, dtype=float)
+    shape = np.broadcast_shapes(x.shape, T.shape)
+    x = np.broadcast_to(x, shape).reshape(-1)
+    T = T.reshape(-1) if T.size == 1 else np.broadcast_to(T, shape).reshape(-1)
+    out = np.empty(x.size)
+    for lo in range(0, x.size, _CHUNK):
+        xi, sign = _column_fold(x[lo:lo + _CHUNK], base, top)
+        Tb = np.broadcast_to(T, xi.shape) if T.size == 1 else T[lo:lo + _CHUNK]
+        out[lo:lo + _CHUNK] = sign * _column_block(xi, Tb, base, top, f0, f1)
+    return out.reshape(shape)[()]
+
+
+def _column_block(xi, T, base, top, f0, f1):
+    """The excess on one block of folded heights xi in [0, 1] and time factors T."""
+    out = f0 + f1 * xi
+    out[(base & (xi == 0)) | (top & (xi == 1))] = 0.0    # the limit at Tv <= 0
+    for mask, form in ((T >= _T_IMAGE, _column_series),
+                       ((T > 0) & (T < _T_IMAGE), _column_images)):
+        if mask.all():
+            return form(xi, T, base, top, f0, f1)
+        if mask.any():
+            out[mask] = form(xi[mask], T[mask], base, top, f0, f1)
+    return out
+
+
+def column_mean(Tv, drained=("top",), p_top: float = 1.0, p_base=None):
+    """Depth average of :func:`column_pressure` (its units) at the time factors ``Tv``
+    (broadcast; a scalar gives a scalar), to TOLERANCE x (|p_top| + |p_base - p_top|): the
+    mode series (integral_0^1 sin(M xi) = (1 - cos M) / M, of cos(M xi) = sin M / M) where
+    Tv >= 0.007, the depth integral of the image form below (erfc integrates to s ierfc,
+    s ierfc to s^2 i2erfc, i2erfc(w) = ((1 + 2 w^2) erfc(w) - 2 w exp(-w^2) / sqrt(pi)) / 4)."""
+    base, top = drained_ends(drained)
+    f0 = float(p_top if p_base is None else p_base)
+    f1 = float(p_top) - f0
+    T = np.asarray(Tv, dtype=float)
+    flat = T.reshape(-1)
+    out = np.full(flat.size, f0 + f1 / 2)
+    short, long = (flat > 0) & (flat < _T_IMAGE), flat >= _T_IMAGE
+    if long.any():
+        Tl = flat[long]
+        j = np.arange(_column_terms(base, top, float(Tl.min())))
+        M, sM, cM = _column_modes(base, top, j)
+        Ms = np.where(M > 0, M, 1.0)
+        mean = (1 - cM) / Ms if base else np.where(M > 0, sM / Ms, 1.0)
+        a = _column_coefficients(base, top, j, f0, f1) * mean
+        out[long] = sum(aj * np.exp(-Mj * Mj * Tl) for Mj, aj in zip(M, a))
+    if short.any():
+        Ts = flat[short]
+        s = 2 * np.sqrt(Ts)
+        acc = np.full(Ts.size, f0 + f1 / 2)
+        for x, J, D in zip(*_column_singularities(base, top, f0, f1, float(Ts.max()))):
+            near, far = (-x / s, (1 - x) / s) if x <= 0 else ((x - 1) / s, x / s)
+            sign = -1.0 if x <= 0 else 1.0
+            acc += sign * (J / 2) * s * (_ierfc(near) - _ierfc(far))
+            acc += (D / 2) * s * s * (_i2erfc(near) - _i2erfc(far))
+        out[short] = acc
+    return out.reshape(T.shape)[()]
+
+
+def column_degree(Tv, drained=("top",), p_top: float = 1.0, p_base=None):
+    """Average degree of consolidation U = 1 - mean(p) / mean(p0) (dimensionless) of
+    :func:`column_pressure`; for a uniform column it is also the settlement ratio
+    (s - s0) / (s_inf - s0), since s = (q H + gamma' H^2 / 2 - H mean(p)) / E_c
+    (:func:`column_settlement`). Undefined without drainage (the mean excess, and with it
+    the settlement, does not change) or where the initial excess averages to zero: both
+    raise ValueError."""
+    if not set(drained) & {"top", "bottom"}:
+        raise ValueError("U is undefined for a column without a drained end: its mean "
+                         "excess pore pressure and its settlement do not change")
+    mean0 = (p_top + (p_top if p_base is None else p_base)) / 2
+    if mean0 == 0:
+        raise ValueError("U is undefined for an initial excess pore pressure of mean zero")
+    return 1.0 - column_mean(Tv, drained, p_top, p_base) / mean0
+
+
+def column_settlement(mean_excess, H: float, E_c: float, q: float = 0.0,
+                      gamma_b: float = 0.0):
+    """Settlement (m, downwards) of a uniform column of height H (m) and constrained modulus
+    E_c (Pa) under a load q (Pa) and its buoyant weight gamma_b = (1 - n)(rho_s - rho_l) g
+    (N/m3), at a depth-average excess pore pressure ``mean_excess`` (Pa): the integral of
+    the effective stress over E_c, (q H + gamma_b H^2 / 2 - H mean_excess) / E_c. The
+    undrained settlement s0 at the initial mean, the final s_inf at 0 (any drained end)."""
+    return (q * H + gamma_b * H * H / 2 - H * np.asarray(mean_excess)) / E_c
+
+
+def undrained_excess(q: float, H: float, n: float, E_c: float, K_l=None, rho_s: float = 0.0,
+                     rho_l: float = 0.0, g: float = 0.0):
+    """(p_top, p_base): the excess pore pressure over hydrostatic (Pa) at the surface and at
+    the base of a uniform column of height H (m) just after a load q (Pa) and gravity g
+    (m/s2; 0: none) are applied to a fresh deposit, before water moves; K_l None: classic
+    (incompressible water, B = 1), else the compressible-water share
+    B = (K_l / n) / (K_l / n + E_c).
+
+    Without relative flow the mixture strains as one body of modulus E_c + K_l / n under the
+    total vertical stress sigma_v = q + gamma_m z (gamma_m = ((1 - n) rho_s + n rho_l) g, the
+    mixture's weight, as the MPM's body force), so the pore pressure is B sigma_v and its
+    excess over the hydrostatic rho_l g z is B q + (B gamma_m - rho_l g) z: with B = 1,
+    q + gamma' z, gamma' = gamma_m - rho_l g = (1 - n)(rho_s - rho_l) g the buoyant weight."""
+    B = 1.0 if K_l is None else undrained_pressure(1.0, E_c, K_l, n)
+    gamma_m = ((1 - n) * rho_s + n * rho_l) * g
+    return B * q, B * q + (B * gamma_m - rho_l * g) * H
