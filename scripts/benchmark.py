@@ -162,8 +162,9 @@ def time_reports(points, comm, p) -> list:
     from solver.soil import Soil
 
     mpi = comm.tompi4py()
-    refs = References.of(Soil.from_options(p), scene.Loading.from_options(p), p.size[1])
-    depths = reporting.Depths(p.size[1])
+    refs = References.of(Soil.from_options(p), scene.Loading.from_options(p),
+                         scene.Body.from_options(p))
+    depths = reporting.Heights()
     depths.refresh(points)                   # at the run's set-up
     with points.fields("monitor") as mon:
         mon[:] = 1.0

@@ -185,7 +185,7 @@ def from_options(p, loaded=None) -> Body:
     if getattr(p, "gravity", 0.0) > 0:
         raise InputError("-mpm_gravity: the FE reference has no body force")
     return Body(size=p.size, E=p.E, nu=p.nu, k=p.k, porosity=p.porosity, K_l=p.K_l,
-                rho_l=p.rho_l, load=p.load, loaded=loaded, drained=tuple(p.drained),
+                rho_l=p.rho_l, load=p.load, loaded=loaded, drained=tuple(s for s in p.drained if s != "none"),
                 bcs={s: getattr(p, f"bc_{s}") for s in SIDES})
 
 

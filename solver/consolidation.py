@@ -63,6 +63,9 @@ def _validate(p) -> tuple:
         # as a finished consolidation.
         raise InputError(f"-mpm_bc_top {p.bc_top}: a top fixed vertically cannot carry "
                          f"-mpm_load {p.load:g} (use -mpm_bc_top none or x, or -mpm_load 0)")
+    if "none" in p.drained and len(p.drained) > 1:
+        raise InputError(f"-mpm_drained {','.join(p.drained)}: none means no drained side; "
+                         "give it alone")
     _check_lateral_drainage(p.element, p.drained)
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
@@ -215,7 +218,7 @@ def _set_up(p, comm, ctx) -> tuple:
     limits = _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
                        p.allow_unstable)
     signals.stage("set-up: the step counts")
-    refs = References.of(soil, loading, body.height)
+    refs = References.of(soil, loading, body)
     schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
                         p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
                         p.checkpoint_seconds, p.progress)
@@ -355,6 +358,8 @@ def _print_plan(comm, plan, n_points):
     body, scheme, schedule, refs = plan.body, plan.scheme, plan.schedule, plan.refs
     if plan.limits.warning:
         PETSc.Sys.Print(plan.limits.warning, comm=comm)
+    if not refs.terzaghi:        # the paper's scenes: Terzaghi's, as Tables 4 and 5 say
+        PETSc.Sys.Print(refs.describe(), comm=comm)
     t_end = refs.time(schedule.Tv_end)
     PETSc.Sys.Print(f"Consolidation: {body.element.upper()}, {body.cells[0]} x "
                     f"{body.cells[1]} cells, {n_points} material points, {comm.getSize()} "
@@ -385,7 +390,8 @@ def _summary(plan, points, state, comm) -> dict:
                "damping": scheme.damping, "bulk_viscosity": scheme.bulk_viscosity,
                "fast_damping": scheme.fast_damping, "flip": scheme.flip, "f1_hz": limits.f1,
                "c_v": refs.c_v, "c2": refs.c2, "p0_consistent_over_q": refs.p0,
-               "regime": limits.regime, "scene": plan.scene, "run_id": plan.run["id"],
+               "regime": limits.regime, "reference": refs.summary(),
+               "scene": plan.scene, "run_id": plan.run["id"],
                "provenance": provenance.collect(comm, plan.provenance)}
     if limits.warning:
         summary["warnings"] = [limits.warning]
@@ -481,13 +487,14 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
     summary["monitor"] = {"height": plan.monitor_height,
                           **{key: [r[key] for r in records] for key in (
                               "Tv", "p_over_q", "terzaghi", "error_pct", "consistent",
-                              "error_consistent_pct")}}
-    summary["profile_l2"] = {"Tv": [r["Tv"] for r in records],
-                             "terzaghi": [r["l2_terzaghi"] for r in records],
-                             "consistent": [r["l2_consistent"] for r in records]}
+                              "error_consistent_pct") if not records or key in records[0]}}
+    if plan.refs.available:
+        summary["profile_l2"] = {"Tv": [r["Tv"] for r in records],
+                                 "terzaghi": [r["l2_terzaghi"] for r in records],
+                                 "consistent": [r["l2_consistent"] for r in records]}
     summary["consolidation_degree"] = reports.surface.summary(state.degree)
-    reporting.print_reports(comm, records)
-    settlement.print_degree(comm, state.degree)
+    reporting.print_reports(comm, records, plan.refs)
+    settlement.print_degree(comm, state.degree, reports.surface)
     if plan.goal is not None:
         _target_verdict(plan, summary, pace, comm)
     last = reports.series.last()          # rank 0's: it writes the series

@@ -24,29 +24,35 @@ def tv_colors(plt, n: int):
     return plt.get_cmap(PRESSURE_CMAP)(np.linspace(0.0, 0.85, max(n, 1)))
 
 
-def isochrone_references(ax, Tvs, colors, H: float, ratio: float, p0: float):
+def isochrone_references(ax, Tvs, colors, H: float, ratio: float, p0: float,
+                         pressure=None):
     """Draw, per T_v, classic Terzaghi (solid) and compressible-water Terzaghi (dotted,
     T_v scaled by ``ratio`` = c2 / c_v, start ``p0`` = p0 / q) as p / q against height (m),
     in the T_v's colour, with its T_v written beside the classic curve; legend entries for
-    the two line styles. ``H``: the layer thickness (m)."""
+    the two line styles. ``H``: the layer thickness (m). ``pressure(y, T_v, form)``: another
+    reference's p / q at heights y (m) in place of Terzaghi's."""
+    name = "Terzaghi" if pressure is None else "reference"
+    if pressure is None:
+        def pressure(y, Tv, form):
+            return (analytic.terzaghi(H - y, Tv, H) if form == "classic"
+                    else analytic.terzaghi(H - y, Tv * ratio, H, p0))
     depth = np.linspace(0.0, H, 300)
     n = len(Tvs)
     for i, (Tv, col) in enumerate(zip(Tvs, colors)):
-        ax.plot(analytic.terzaghi(depth, Tv, H), H - depth, color=col, **CLASSIC)
-        ax.plot(analytic.terzaghi(depth, Tv * ratio, H, p0), H - depth, color=col,
-                **COMPRESSIBLE)
+        ax.plot(pressure(H - depth, Tv, "classic"), H - depth, color=col, **CLASSIC)
+        ax.plot(pressure(H - depth, Tv, "consistent"), H - depth, color=col, **COMPRESSIBLE)
         # Labels beside their curves at staggered heights, early times high: there the
         # later curves (to the left) are far away. Left of the curve, unless it runs close
         # to the axis.
         y = H * (0.06 + 0.8 * (n - i - 0.5) / n)
-        x = float(analytic.terzaghi(H - y, Tv, H))
+        x = float(pressure(y, Tv, "classic"))
         left = x > 0.25
         ax.annotate(f"T_v = {Tv:g}", (x, y), xytext=(-4 if left else 4, 0),
                     textcoords="offset points", ha="right" if left else "left",
                     va="center", fontsize=7, color=col, zorder=5,
                     bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
-    ax.plot([], [], color="k", label="Terzaghi, classic", **CLASSIC)
-    ax.plot([], [], color="k", label="Terzaghi, compressible water", **COMPRESSIBLE)
+    ax.plot([], [], color="k", label=f"{name}, classic", **CLASSIC)
+    ax.plot([], [], color="k", label=f"{name}, compressible water", **COMPRESSIBLE)
     ax.set_xlabel("excess pore pressure p / q (-)")
     ax.set_ylabel("height above the base (m)")
     ax.set_xlim(0, 1.1)
@@ -90,20 +96,30 @@ def pressure_field(plt, snapshots, q: float, title: str, width: float = None):
     return fig
 
 
+def _degree(degree, ratio):
+    """The reference U(T_v, form): ``degree`` or, when None, Terzaghi's (compressible water:
+    T_v scaled by ``ratio`` = c2 / c_v)."""
+    if degree is not None:
+        return degree
+    return lambda T, form: analytic.degree_of_consolidation(
+        T * ratio if form == "consistent" else T)
+
+
 def consolidation_degree(plt, Tv, U_settlement, U_pressure, ratio: float, Tv_end: float,
-                         title: str):
-    """The degree of consolidation U (-) against the time factor T_v (-, log axis): classic
-    Terzaghi (solid), compressible water (dotted, T_v scaled by ``ratio`` = c2 / c_v), and
-    the run's U from the surface settlement and from the mean pore pressure, each an array
-    at the times ``Tv``. Drawn up to ``Tv_end``."""
+                         title: str, degree=None, name: str = "Terzaghi"):
+    """The degree of consolidation U (-) against the time factor T_v (-, log axis): the
+    reference ``name`` classic (solid) and with compressible water (dotted), and the run's U
+    from the surface settlement and from the mean pore pressure, each an array at the times
+    ``Tv``. Drawn up to ``Tv_end``. ``degree(T, form)``: the reference's U (None:
+    Terzaghi's, with ``ratio`` = c2 / c_v)."""
     Tv = np.asarray(Tv, dtype=float)
+    degree = _degree(degree, ratio)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     start = min(1e-4, Tv[Tv > 0].min()) if np.any(Tv > 0) else 1e-4
     T = np.geomspace(start, max(Tv_end, start * 10), 400)
-    ax.plot(T, analytic.degree_of_consolidation(T), color="k", label="Terzaghi, classic",
-            **CLASSIC)
-    ax.plot(T, analytic.degree_of_consolidation(T * ratio), color="k",
-            label="Terzaghi, compressible water", **COMPRESSIBLE)
+    ax.plot(T, degree(T, "classic"), color="k", label=f"{name}, classic", **CLASSIC)
+    ax.plot(T, degree(T, "consistent"), color="k", label=f"{name}, compressible water",
+            **COMPRESSIBLE)
     ax.plot(Tv, U_settlement, color="tab:blue", lw=1.0,
             label="MPM, from the surface settlement")
     ax.plot(Tv, U_pressure, color="tab:orange", lw=1.0, ls="--",
@@ -130,11 +146,14 @@ def time_unit(t_end: float) -> tuple:
 
 
 def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, ratio: float,
-                    H: float, title: str):
+                    H: float, title: str, degree=None, name: str = "Terzaghi",
+                    s0_classic: float = 0.0):
     """The surface settlement (mm, downwards positive) against time (log axis, in the unit
-    of :func:`time_unit`): the run's, classic Terzaghi's s_inf U(T_v) and the compressible
-    water's s0 + (s_inf - s0) U(T_v c2 / c_v), with the final settlement s_inf. ``t`` (s),
-    ``settlement``, ``s0``, ``s_inf`` (m), ``cv`` (m2/s), ``H`` (m)."""
+    of :func:`time_unit`): the run's, the classic reference's s0_classic + (s_inf -
+    s0_classic) U(T_v) and the compressible water's s0 + (s_inf - s0) U(T_v c2 / c_v), with
+    the final settlement s_inf. ``t`` (s), ``settlement``, ``s0``, ``s_inf`` (m), ``cv``
+    (m2/s), ``H`` (m); ``degree`` and ``name`` as :func:`consolidation_degree`'s."""
+    degree = _degree(degree, ratio)
     t, settlement = np.asarray(t, dtype=float), np.asarray(settlement, dtype=float)
     unit, sec = time_unit(t[-1] if len(t) else 1.0)
     fig, ax = plt.subplots(figsize=(7, 4.5))
@@ -142,14 +161,14 @@ def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, rati
     start = t[keep].min() if np.any(keep) else 1e-4
     tt = np.geomspace(start, max(t[-1] if len(t) else 1.0, start * 10), 400)
     Tv = cv * tt / (H * H)
-    ax.plot(tt / sec, 1e3 * s_inf * analytic.degree_of_consolidation(Tv), color="k",
-            label="Terzaghi, classic", **CLASSIC)
-    ax.plot(tt / sec, 1e3 * (s0 + (s_inf - s0) * analytic.degree_of_consolidation(Tv * ratio)),
-            color="k", label="Terzaghi, compressible water", **COMPRESSIBLE)
+    ax.plot(tt / sec, 1e3 * (s0_classic + (s_inf - s0_classic) * degree(Tv, "classic")),
+            color="k", label=f"{name}, classic", **CLASSIC)
+    ax.plot(tt / sec, 1e3 * (s0 + (s_inf - s0) * degree(Tv, "consistent")),
+            color="k", label=f"{name}, compressible water", **COMPRESSIBLE)
     ax.plot(t[keep] / sec, 1e3 * settlement[keep], color="tab:blue", lw=1.0,
             label="MPM, surface settlement")
     ax.axhline(1e3 * s_inf, color="0.5", lw=0.8, ls="--",
-               label=f"final settlement q H / E_c = {1e3 * s_inf:.4g} mm")
+               label=f"final settlement {1e3 * s_inf:.4g} mm")
     ax.set_xscale("log")
     ax.set_xlim(tt[0] / sec, tt[-1] / sec)
     ax.invert_yaxis()                    # settlement grows downwards, as the ground moves

@@ -138,8 +138,9 @@ SPEC = [
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
            (CONSOLIDATION,), _nonnegative),
     Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable "
-           "(no flow relative to the skeleton); left and right with q4 cells only",
-           (CONSOLIDATION,), choices=("left", "right", "bottom", "top")),
+           "(no flow relative to the skeleton); left and right with q4 cells only; none: "
+           "no drained side (undrained loading)",
+           (CONSOLIDATION,), choices=("left", "right", "bottom", "top", "none")),
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
            "smallest critical time step", (CONSOLIDATION,), _positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",

@@ -12,6 +12,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from . import analytic
 from .scene import Body, Loading
 from .scheme import Scheme
 from .soil import Soil
@@ -41,21 +44,111 @@ class Schedule:
         return self.nsteps * self.dt
 
 
+FORMS = ("classic", "consistent")     # incompressible water (c_v), compressible (c2)
+
+
 @dataclass(frozen=True)
 class References:
-    """Scales of the analytic references: Terzaghi's c_v (m2/s), the compressible-water
-    diffusivity c2 (m2/s) and share p0 / q of the load the water takes at once (-); ``q``
-    (Pa) the pressure p is normalised by; H (m) the drainage length of the column."""
+    """The scene's own analytic references, and the scales of every comparison.
+
+    ``c_v`` (m2/s) Terzaghi's coefficient, ``c2`` (m2/s) the compressible-water
+    diffusivity, ``p0`` (-) the share B of a sudden load the water takes; ``q`` (Pa) the
+    pressure p is normalised by; ``H`` (m) the column height (T_v = c_v t / H^2 whatever
+    the drainage). The reference is a uniform column drained at its ends ``drained``
+    (a subset of top, bottom; empty: undrained) from an initial excess over hydrostatic
+    linear in height: (p_top, p_base) / q in each form (``initial``: classic, consistent).
+    ``hydrostatic`` (Pa/m) is rho_l g: the excess at height y is p - rho_l g (H - y).
+    ``why`` says why the scene has no reference ('' when it has one); ``why_degree`` why
+    it has no degree of consolidation (U) although it has a reference.
+    """
 
     c_v: float
     c2: float
     p0: float
     q: float
     H: float
+    drained: tuple = ("top",)
+    initial: tuple = ((1.0, 1.0), (1.0, 1.0))
+    hydrostatic: float = 0.0
+    why: str = ""
+    why_degree: str = ""
 
     @classmethod
-    def of(cls, soil: Soil, loading: Loading, H: float) -> "References":
-        return cls(soil.c_v, soil.c2, soil.undrained_ratio, loading.scale(soil, H), H)
+    def of(cls, soil: Soil, loading: Loading, body: Body) -> "References":
+        """The references of ``body`` of ``soil`` under ``loading``."""
+        H, q = body.height, loading.scale(soil, body.height)
+        scales = (soil.c_v, soil.c2, soil.undrained_ratio, q, H)
+        why = _no_reference(body, loading)
+        if why:
+            return cls(*scales, drained=(), why=why, why_degree=why)
+        g, E_c, n = loading.gravity, soil.constrained_modulus, soil.porosity
+        initial = tuple(
+            tuple(v / q for v in analytic.undrained_excess(
+                loading.load, H, n, E_c, K_l, soil.rho_s, soil.rho_l, g))
+            for K_l in (None, soil.K_l))
+        if g == 0:     # a load alone: the same numbers as the paper's closed forms
+            initial = ((1.0, 1.0), (soil.undrained_ratio,) * 2)
+        drained = tuple(s for s in ("top", "bottom") if s in body.drained)
+        why_degree = "" if drained else ("no drained side: the mean pore pressure and the "
+                                         "settlement do not change, U is undefined")
+        return cls(*scales, drained=drained, initial=initial,
+                   hydrostatic=soil.rho_l * g, why_degree=why_degree)
+
+    @property
+    def available(self) -> bool:
+        return not self.why
+
+    @property
+    def terzaghi(self) -> bool:
+        """Whether the reference is Terzaghi's (drained at the top, a uniform initial
+        excess): the paper's comparison, by its closed forms."""
+        return self.drained == ("top",) and all(a == b for a, b in self.initial)
+
+    def describe(self) -> str:
+        """The reference in words, for the run's banner."""
+        if not self.available:
+            return f"No analytic reference for this scene: {self.why}"
+        if self.terzaghi:
+            return ("Reference: Terzaghi's one-way consolidation (drained at the top), "
+                    "classic and with compressible water")
+        ends = {("top",): "at the top", ("bottom",): "at the base",
+                ("top", "bottom"): "at the top and the base (two-way)",
+                (): "nowhere (undrained)"}[self.drained]
+        (ct, cb), (st, sb) = self.initial
+        return (f"Reference: a uniform column drained {ends}, initial excess over "
+                f"hydrostatic p/q = {ct:.4g} at the top and {cb:.4g} at the base (classic; "
+                f"{st:.4g} and {sb:.4g} with compressible water)")
+
+    def summary(self) -> dict:
+        """What the run's summary says of the reference."""
+        entry = {"description": self.describe(), "available": self.available}
+        if self.available:
+            entry.update(drained=list(self.drained), initial_excess_over_q={
+                form: list(values) for form, values in zip(FORMS, self.initial)})
+        return entry
+
+    def pressure(self, y, Tv, form: str):
+        """The reference excess pore pressure p / q at heights y (m) and time factor Tv
+        in ``form`` (classic or consistent)."""
+        top, base = self.initial[FORMS.index(form)]
+        T = Tv * self.c2 / self.c_v if form == "consistent" else Tv
+        if self.terzaghi:
+            return analytic.terzaghi(self.H - np.asarray(y), T, self.H, top)
+        return analytic.column_pressure(y, T, self.H, self.drained, top, base)
+
+    def degree(self, Tv, form: str):
+        """The reference degree of consolidation U at time factors Tv in ``form``."""
+        T = Tv * self.ratio if form == "consistent" else Tv
+        if self.terzaghi:
+            return analytic.degree_of_consolidation(T)
+        top, base = self.initial[FORMS.index(form)]
+        return analytic.column_degree(T, self.drained, top, base)
+
+    def excess(self, p, y):
+        """The excess over hydrostatic (Pa) of pore pressures p (Pa) at heights y (m)."""
+        if self.hydrostatic == 0:
+            return p
+        return p - self.hydrostatic * (self.H - np.asarray(y))
 
     def time_factor(self, t: float) -> float:
         """T_v = c_v t / H^2 at time t (s)."""
@@ -124,3 +217,20 @@ class Plan:
     resumed_id: str | None = None
     goal: dict | None = None
     target_error: float = math.nan
+
+
+def _no_reference(body: Body, loading: Loading) -> str:
+    """Why the scene is not a one-dimensional column with an analytic reference ('' when
+    it is one)."""
+    bcs = body.supports
+    if set(body.drained) & {"left", "right"}:
+        return ("drained through a side (-mpm_drained " + ",".join(body.drained) + "), the "
+                "consolidation is two-dimensional; solver.biot computes its reference "
+                "(docs/method.md)")
+    if bcs["left"] != "x" or bcs["right"] != "x" or "y" not in bcs["bottom"]:
+        return ("the supports (-mpm_bc_*) are not those of a one-dimensional column "
+                "(rollers on both sides, the base fixed vertically)")
+    if loading.gravity > 0 and "bottom" in body.drained:
+        return ("a drained base under gravity holds the pore pressure at 0, not at the "
+                "hydrostatic pressure, so the excess has no closed form")
+    return ""

@@ -39,9 +39,9 @@ class Reporting:
         self.files = {}
         self.series = PointSeries(plan.outputs.folder, comm, plan.run["id"])
         self.surface = settlement.Surface(grid, plan.soil, plan.loading, self.H,
-                                          plan.body.ppc)
-        self.depths = Depths(self.H)
-        self.depths.refresh(points)
+                                          plan.body.ppc, refs)
+        self.heights = Heights()
+        self.heights.refresh(points)
         if plan.restart:
             # The series files of the checkpoint's run (an older one's have no id).
             self.series.resume(self.state.series, plan.resumed_id)
@@ -53,7 +53,9 @@ class Reporting:
     def sample(self, t):
         """The monitor's p / q and the surface settlement and mean p at time ``t``."""
         Tv = self.plan.refs.time_factor(t)
-        self.state.history.append((t, Tv, monitor_pressure(self.points, self.mpi) / self.q))
+        p = self.plan.refs.excess(monitor_pressure(self.points, self.mpi),
+                                  self.plan.monitor_height)
+        self.state.history.append((t, Tv, p / self.q))
         self.state.settlement.append((t, Tv, *self.surface.measure(self.points, self.mpi)))
 
     def isochrone(self, k, t):
@@ -67,11 +69,11 @@ class Reporting:
         if k in schedule.report_steps:
             Tv = schedule.report_steps[k]
             state.reports.append(report(Tv, t, self.points, self.mpi, plan.refs,
-                                        plan.monitor_height, self.depths))
-            state.degree.append(self.surface.report(Tv, state.settlement[-1], self.ratio))
+                                        plan.monitor_height, self.heights))
+            state.degree.append(self.surface.report(Tv, state.settlement[-1]))
             if comm.getRank() == 0:
                 self.files["settlement_csv"] = self.surface.write_csv(
-                    plan.outputs.folder, state.settlement, self.ratio)
+                    plan.outputs.folder, state.settlement)
 
     def write_fields(self, k, t):
         """The points' fields at step ``k`` into the series (collective)."""
@@ -101,46 +103,54 @@ def profile(points, comm):
     return np.concatenate(parts) if parts is not None else None
 
 
-def report(Tv, t, points, mpi, refs, height, depths):
-    """The monitor's p / q at T_v = ``Tv`` (time t, s) against both references at its
-    height (m), and the profile's L2 errors (``depths``: :class:`Depths`); ``refs`` the
-    plan's :class:`solver.plan.References`."""
-    H, q, cv, c2, p0 = refs.H, refs.q, refs.c_v, refs.c2, refs.p0
-    num = monitor_pressure(points, mpi) / q
-    ref = float(analytic.terzaghi(H - height, Tv, H))
-    con = float(analytic.terzaghi(H - height, Tv * c2 / cv, H, p0))
-    r = {"Tv": Tv, "t": t, "p_over_q": num, "terzaghi": ref, "consistent": con,
-         "error_pct": 100 * (num - ref) / ref, "error_consistent_pct": 100 * (num - con) / con}
-    r["l2_terzaghi"], r["l2_consistent"] = depths.l2_errors(
-        points, mpi, q, [lambda d: analytic.terzaghi(d, Tv, H),
-                         lambda d: analytic.terzaghi(d, Tv * c2 / cv, H, p0)])
+def report(Tv, t, points, mpi, refs, height, heights):
+    """The monitor's excess pore pressure p / q at T_v = ``Tv`` (time t, s) and, where the
+    scene has a reference, both forms of it at the monitor's height (m) and the profile's
+    L2 errors (``heights``: :class:`Heights`); ``refs`` the plan's
+    :class:`solver.plan.References`."""
+    q = refs.q
+    num = refs.excess(monitor_pressure(points, mpi), height) / q
+    r = {"Tv": Tv, "t": t, "p_over_q": num}
+    if not refs.available:
+        return r
+    ref = float(refs.pressure(height, Tv, "classic"))
+    con = float(refs.pressure(height, Tv, "consistent"))
+    r.update({"terzaghi": ref, "consistent": con, "error_pct": 100 * (num - ref) / ref,
+              "error_consistent_pct": 100 * (num - con) / con})
+    r["l2_terzaghi"], r["l2_consistent"] = heights.l2_errors(
+        points, mpi, q, [lambda y: refs.pressure(y, Tv, "classic"),
+                         lambda y: refs.pressure(y, Tv, "consistent")],
+        refs.excess if refs.hydrostatic else None)
     return r
 
 
-class Depths:
-    """The points' depths below the surface, H - y0 (m), as the distinct values and each
-    point's index into them, kept per point generation: a reference profile is evaluated
-    once per distinct depth (a few hundred on a structured placement) and each rank sums
-    the errors of its own points, so a report at 1e6 points costs less than a step."""
+class Heights:
+    """The points' reference heights y0 (m) as the distinct values and each point's index
+    into them, kept per point generation: a reference profile is evaluated once per
+    distinct height (a few hundred on a structured placement) and each rank sums the
+    errors of its own points, so a report at 1e6 points costs less than a step."""
 
-    def __init__(self, height):
-        self.height, self._generation = height, None
+    def __init__(self):
+        self._generation = None
 
     def refresh(self, points):
-        """Find the distinct depths (a sort of the points: 0.3 s at 1e6 points, done at
+        """Find the distinct heights (a sort of the points: 0.3 s at 1e6 points, done at
         set-up and again only after the points changed)."""
         if self._generation != points.generation:
             x0 = points.views("x0")
-            self.values, self.index = np.unique(self.height - x0[:, 1], return_inverse=True)
+            self.values, self.index = np.unique(x0[:, 1], return_inverse=True)
             self._generation = points.generation
 
-    def l2_errors(self, points, mpi, q, profiles) -> list:
+    def l2_errors(self, points, mpi, q, profiles, excess=None) -> list:
         """sqrt(sum V (p/q - exact)^2 / sum V) over all points for each ``profiles``
-        function exact(depth) (p/q, depth in m)."""
+        function exact(height) (p/q, height in m); ``excess(p, y)`` turns the points'
+        pore pressures into the excess the references give (None: as they are)."""
         from mpi4py import MPI
 
         self.refresh(points)
         pp, V = points.views("p", "volume")
+        if excess is not None:
+            pp = excess(pp, self.values[self.index])
         sums = np.array([float(np.sum(V * (pp / q - f(self.values)[self.index]) ** 2))
                          for f in profiles] + [float(np.sum(V))])
         if mpi.Get_size() > 1:
@@ -174,10 +184,24 @@ def print_limits(comm, limits, dt, soil, body, scheme, patch, how):
     PETSc.Sys.Print("\n".join(lines), comm=comm)
 
 
-def print_reports(comm, reports):
-    lines = ["Normalised pore pressure p/q at the monitor point (Tables 4 and 5):",
-             f"{'T_v':>6s}{'p/q':>9s}{'Terzaghi':>10s}{'error':>9s}{'consistent':>12s}"
-             f"{'error':>9s}{'L2 Terz.':>10s}{'L2 cons.':>10s}"]
+def print_reports(comm, reports, refs):
+    """The monitor's p / q at the report times against the scene's reference (``refs``),
+    or alone, with the reason, where the scene has none."""
+    if not refs.available:
+        lines = ["Excess pore pressure p/q at the monitor point (no reference):",
+                 f"{'T_v':>6s}{'p/q':>9s}"]
+        lines += [f"{r['Tv']:6.2f}{r['p_over_q']:9.3f}" for r in reports]
+        PETSc.Sys.Print("\n".join(lines), comm=comm)
+        return
+    if refs.terzaghi:
+        title, name, l2 = ("Normalised pore pressure p/q at the monitor point (Tables 4 "
+                           "and 5):", "Terzaghi", "L2 Terz.")
+    else:
+        title, name, l2 = ("Excess pore pressure p/q at the monitor point against the "
+                           "scene's reference:", "classic", "L2 clas.")
+    lines = [title,
+             f"{'T_v':>6s}{'p/q':>9s}{name:>10s}{'error':>9s}{'consistent':>12s}"
+             f"{'error':>9s}{l2:>10s}{'L2 cons.':>10s}"]
     for r in reports:
         lines.append(f"{r['Tv']:6.2f}{r['p_over_q']:9.3f}{r['terzaghi']:10.3f}"
                      f"{r['error_pct']:8.2f}%{r['consistent']:12.3f}"
@@ -188,21 +212,25 @@ def print_reports(comm, reports):
 
 def write_files(plan, profiles, history):
     """Isochrones (Figs 4-5), the pressure field (Fig 3), the monitor history; rank 0."""
-    files, folder, q = {}, plan.outputs.folder, plan.refs.q
+    files, folder, refs = {}, plan.outputs.folder, plan.refs
+    q, gravity = refs.q, refs.hydrostatic > 0
     hist = np.array(history) if history else np.zeros((0, 3))
     files["monitor_csv"] = os.path.join(folder, "monitor.csv")
     with output.atomic(files["monitor_csv"]) as tmp:
-        np.savetxt(tmp, hist, delimiter=",", header="t_s,Tv,p_over_q_compression_positive",
-                   comments="")
-    # Every point's pore pressure at every isochrone time: enough to redraw Figs 3-5.
+        np.savetxt(tmp, hist, delimiter=",", comments="", header="t_s,Tv," + (
+            "excess_p_over_q" if gravity else "p_over_q") + "_compression_positive")
+    # Every point's pore pressure at every isochrone time: enough to redraw Figs 3-5; under
+    # gravity the total and the excess over hydrostatic.
     files["profiles_csv"] = os.path.join(folder, "profiles.csv")
     with output.atomic(files["profiles_csv"]) as tmp, open(tmp, "w") as fh:
-        fh.write("Tv,t_s,x_m,y0_m,p_over_q_compression_positive,volume_m3\n")
+        fh.write("Tv,t_s,x_m,y0_m,p_over_q_compression_positive,volume_m3"
+                 + (",excess_p_over_q_compression_positive\n" if gravity else "\n"))
         for Tv, t, prof in profiles:         # one isochrone at a time: 48 bytes per point
-            np.savetxt(fh, np.column_stack([np.full(len(prof), Tv), np.full(len(prof), t),
-                                            prof[:, 3], prof[:, 0],
-                                            prof[:, 1] / q, prof[:, 2]]),
-                       delimiter=",")
+            cols = [np.full(len(prof), Tv), np.full(len(prof), t), prof[:, 3], prof[:, 0],
+                    prof[:, 1] / q, prof[:, 2]]
+            if gravity:
+                cols.append(refs.excess(prof[:, 1], prof[:, 0]) / q)
+            np.savetxt(fh, np.column_stack(cols), delimiter=",")
     if plan.outputs.figures:
         files.update(_figures(plan, profiles, hist))
     return files
@@ -214,8 +242,10 @@ def _figures(plan, profiles, hist):
     files = output.save_figures(_isochrone_figure(plt, plan, profiles), out.folder,
                                 "isochrones", out.formats)
     shown = [pr for pr in profiles if pr[0] in plan.schedule.Tv_report] or profiles[-1:]
+    excess = plan.refs.excess
     fig = figures.pressure_field(
-        plt, [(Tv, prof[:, 3], prof[:, 0], prof[:, 1]) for Tv, _, prof in shown],
+        plt, [(Tv, prof[:, 3], prof[:, 0], excess(prof[:, 1], prof[:, 0]))
+              for Tv, _, prof in shown],
         plan.refs.q, f"Pore pressure field, {plan.body.element.upper()}, "
                      f"{len(shown[0][2])} MPs", width=plan.body.size[0])
     files.update(output.save_figures(fig, out.folder, "pressure_field", out.formats))
@@ -229,12 +259,14 @@ def _isochrone_figure(plt, plan, profiles):
     refs = plan.refs
     fig, ax = plt.subplots(figsize=(6, 6))
     colors = figures.tv_colors(plt, len(profiles))
-    figures.isochrone_references(ax, [Tv for Tv, _, _ in profiles], colors, refs.H,
-                                 refs.ratio, refs.p0)
+    if refs.available:
+        figures.isochrone_references(
+            ax, [Tv for Tv, _, _ in profiles], colors, refs.H, refs.ratio, refs.p0,
+            None if refs.terzaghi else refs.pressure)
     for i, ((Tv, _, prof), col) in enumerate(zip(profiles, colors)):
         k = figures.drawn(len(prof))
-        ax.plot(prof[k, 1] / refs.q, prof[k, 0], "o", color=col, ms=3, mfc="none",
-                label=None if i else "MPM points")
+        ax.plot(refs.excess(prof[k, 1], prof[k, 0]) / refs.q, prof[k, 0], "o", color=col,
+                ms=3, mfc="none", label=None if i else "MPM points")
     ax.set_title(f"Isochrones, {title(plan)}")
     figures.legend_below(ax, ncol=2)
     return fig
@@ -247,10 +279,16 @@ def _monitor_figure(plt, plan, hist):
     fig, ax = plt.subplots(figsize=(7, 4))
     ax.plot(hist[:, 1], hist[:, 2], lw=0.8, label="MPM")
     Tv = np.geomspace(1e-4, plan.schedule.Tv_end, 400)
-    ax.plot(Tv, analytic.terzaghi(H - height, Tv, H), color="k",
-            label="Terzaghi, classic", **figures.CLASSIC)
-    ax.plot(Tv, analytic.terzaghi(H - height, Tv * refs.ratio, H, refs.p0), color="k",
-            label="Terzaghi, compressible water", **figures.COMPRESSIBLE)
+    if refs.terzaghi:
+        ax.plot(Tv, analytic.terzaghi(H - height, Tv, H), color="k",
+                label="Terzaghi, classic", **figures.CLASSIC)
+        ax.plot(Tv, analytic.terzaghi(H - height, Tv * refs.ratio, H, refs.p0), color="k",
+                label="Terzaghi, compressible water", **figures.COMPRESSIBLE)
+    elif refs.available:
+        ax.plot(Tv, refs.pressure(height, Tv, "classic"), color="k",
+                label="reference, classic", **figures.CLASSIC)
+        ax.plot(Tv, refs.pressure(height, Tv, "consistent"), color="k",
+                label="reference, compressible water", **figures.COMPRESSIBLE)
     ax.set_xscale("log")
     ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
     ax.set_ylabel(f"p / q at {height:.4g} m (-)")

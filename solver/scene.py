@@ -51,7 +51,7 @@ class Body:
         return cls(element=p.element, cells=tuple(p.cells), size=tuple(p.size), ppc=p.ppc,
                    placement=p.points,
                    bcs=tuple((side, getattr(p, f"bc_{side}")) for side in SIDES),
-                   drained=tuple(p.drained))
+                   drained=tuple(s for s in p.drained if s != "none"))
 
     @property
     def height(self) -> float:

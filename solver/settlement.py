@@ -14,7 +14,7 @@ from . import analytic, figures, output
 
 class Surface:
     """Surface settlement and mean excess pore pressure, the two measures of the degree of
-    consolidation, and their references (the load case: gravity has none here).
+    consolidation, and their references (the scene's: :class:`solver.plan.References`).
 
     Settlement s (m, downwards positive): the points' vertical displacement x - x0 in the
     top row of cells, fitted by least squares with a polynomial in y0 of the element's
@@ -23,25 +23,39 @@ class Surface:
     (small kinematics: exactly), so the fit gives the settlement of the top nodes; the top
     row of points alone would miss the compression of the half row above it (2.5 % of the
     final settlement on M1-Q4, one point row per cell: then the fit is that row's mean).
-    Mean pressure: the points' volume-weighted mean p (Pa).
+    Mean pressure: the points' volume-weighted mean excess pore pressure over hydrostatic
+    (Pa).
 
-    References (Pa, m): p0 = q (K_l/n) / (K_l/n + E_c) the undrained pore pressure, s0 =
-    q H / (E_c + K_l/n) the undrained settlement, s_inf = q H / E_c the final one; then
-    U_s = (s - s0) / (s_inf - s0) and U_p = 1 - mean p / p0, both Terzaghi's U with
-    compressible water (diffusivity c2), and classic Terzaghi's for incompressible water.
+    References (Pa, m): p0 the mean undrained excess (with compressible water), s0 the
+    undrained settlement and s_inf the final one (a load q alone: p0 = q (K_l/n) /
+    (K_l/n + E_c), s0 = q H / (E_c + K_l/n), s_inf = q H / E_c; with gravity the integral of
+    the effective stress, ``analytic.column_settlement``); then U_s = (s - s0) /
+    (s_inf - s0) and U_p = 1 - mean p / p0, both the scene's U with compressible water
+    (diffusivity c2), beside its classic form (incompressible water). A scene without a
+    reference, or without a drained side, has no U: ``why`` says why.
     """
 
-    def __init__(self, grid, soil, loading, H, ppc):
+    def __init__(self, grid, soil, loading, H, ppc, refs):
         """On ``grid`` with ``ppc`` points per cell per direction, a column of ``soil``
-        and height H (m) under ``loading`` (scene.Loading)."""
-        self.H, self.h = H, grid.h[1]
+        and height H (m) under ``loading`` (scene.Loading), with the references ``refs``."""
+        self.H, self.h, self.refs = H, grid.h[1], refs
         self.order = min(grid.p, ppc - 1)
         E_c = soil.constrained_modulus
         undrained = E_c + soil.K_l / soil.porosity
-        self.valid = loading.gravity == 0 and loading.load > 0
         q = loading.load
-        self.s0, self.s_inf = q * self.H / undrained, q * self.H / E_c
-        self.p0 = analytic.undrained_pressure(q, E_c, soil.K_l, soil.porosity)
+        if loading.gravity == 0:
+            self.s0, self.s_inf = q * self.H / undrained, q * self.H / E_c
+            self.p0 = analytic.undrained_pressure(q, E_c, soil.K_l, soil.porosity)
+            self.s0_classic = 0.0
+        else:
+            gamma_b = (1 - soil.porosity) * (soil.rho_s - soil.rho_l) * loading.gravity
+            self.p0 = refs.q * sum(refs.initial[1]) / 2
+            self.s0, self.s_inf, self.s0_classic = (
+                float(analytic.column_settlement(m, H, E_c, q, gamma_b))
+                for m in (self.p0, 0.0, refs.q * sum(refs.initial[0]) / 2))
+        self.why = refs.why_degree or ("" if self.p0 != 0 else
+                                       "no initial excess pore pressure: U is undefined")
+        self.valid = not self.why
         self._generation = None     # of the points when the fit's selection was made
 
     def measure(self, points, mpi):
@@ -61,7 +75,7 @@ class Surface:
             from mpi4py import MPI
 
             mpi.Allreduce(MPI.IN_PLACE, buf, op=MPI.SUM)
-        return -float(weights @ buf[:-1]), buf[-1] / volume
+        return -float(weights @ buf[:-1]), buf[-1] / volume - self._hydrostatic
 
     def _select(self, points, mpi):
         """The points of the top cell row and the least-squares weights of the fit's value
@@ -72,31 +86,37 @@ class Surface:
         x0, V = points.views("x0", "volume")
         top = np.flatnonzero(x0[:, 1] > self.H - self.h)   # half a row from either side
         A = np.vander((x0[top, 1] - self.H) / self.h, self.order + 1, increasing=True)
-        sums = np.append((A.T @ A).ravel(), float(np.sum(V)))
+        # The hydrostatic part of the mean pore pressure: rho_l g sum V (H - y0) / sum V.
+        sums = np.concatenate([(A.T @ A).ravel(), [float(np.sum(V)),
+                                                   float(V @ (self.H - x0[:, 1]))]])
         mpi.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
         n = self.order + 1
-        weights = np.linalg.inv(sums[:-1].reshape(n, n))[0]
-        self._fit = (top, A.T.copy(), weights, sums[-1])
+        weights = np.linalg.inv(sums[:-2].reshape(n, n))[0]
+        self._hydrostatic = self.refs.hydrostatic * sums[-1] / sums[-2]
+        self._fit = (top, A.T.copy(), weights, sums[-2])
         self._volume = V
         self._buf = np.empty(n + 1)
         self._generation = points.generation
 
     def degrees(self, rows):
         """(U from settlement, U from pressure) of history rows (t, Tv, s, mean p); NaN
-        without a load case."""
+        where U is undefined (``why``)."""
         r = np.array(rows, dtype=float).reshape(-1, 4)
         if not self.valid:
             return np.full(len(r), np.nan), np.full(len(r), np.nan)
         return (r[:, 2] - self.s0) / (self.s_inf - self.s0), 1 - r[:, 3] / self.p0
 
-    def report(self, Tv, row, ratio) -> dict:
+    def report(self, Tv, row) -> dict:
         """The degree of consolidation at report time Tv from the history row of its step
-        and both Terzaghi references (``ratio`` = c2 / c_v); errors in % of the reference."""
+        and both forms of the scene's reference; errors in % of the reference (without
+        U: the settlement and mean pressure only)."""
+        out = {"Tv": Tv, "t": row[0], "settlement_m": row[2], "mean_p_pa": row[3]}
+        if not self.valid:
+            return out
         Us, Up = (float(u[0]) for u in self.degrees([row]))
-        ref = float(analytic.degree_of_consolidation(Tv))
-        con = float(analytic.degree_of_consolidation(Tv * ratio))
-        return {"Tv": Tv, "t": row[0], "settlement_m": row[2], "mean_p_pa": row[3],
-                "U_settlement": Us, "U_pressure": Up, "terzaghi": ref, "consistent": con,
+        ref = float(self.refs.degree(Tv, "classic"))
+        con = float(self.refs.degree(Tv, "consistent"))
+        return {**out, "U_settlement": Us, "U_pressure": Up, "terzaghi": ref, "consistent": con,
                 "error_settlement_pct": 100 * (Us - ref) / ref,
                 "error_settlement_consistent_pct": 100 * (Us - con) / con,
                 "error_pressure_pct": 100 * (Up - ref) / ref,
@@ -108,33 +128,49 @@ class Surface:
                "s0_m": self.s0 if self.valid else None,
                "s_inf_m": self.s_inf if self.valid else None,
                "p0_pa": self.p0 if self.valid else None}
+        if not self.valid:
+            out["why"] = self.why
         for key in ("Tv", "t", "settlement_m", "mean_p_pa", "U_settlement", "U_pressure",
                     "terzaghi", "consistent", "error_settlement_pct",
                     "error_settlement_consistent_pct", "error_pressure_pct",
                     "error_pressure_consistent_pct"):
-            out[key] = [r[key] for r in reports]
+            if not reports or key in reports[0]:
+                out[key] = [r[key] for r in reports]
         return out
 
-    def write_csv(self, folder, rows, ratio) -> str:
-        """settlement.csv: the history with both U and both Terzaghi references; rank 0,
-        rewritten whole at each report time and at the end."""
+    def write_csv(self, folder, rows) -> str:
+        """settlement.csv: the history with both U and both forms of the reference (the
+        settlement and mean excess alone where U is undefined); rank 0, rewritten whole
+        at each report time and at the end."""
         path = os.path.join(folder, "settlement.csv")
         r = np.array(rows, dtype=float).reshape(-1, 4)
-        Us, Up = self.degrees(rows)
-        table = np.column_stack([r[:, 0], r[:, 1], r[:, 2], Us, Up,
-                                 analytic.degree_of_consolidation(r[:, 1]),
-                                 analytic.degree_of_consolidation(r[:, 1] * ratio)])
+        if not self.valid:
+            table = r[:, :4]
+            header = ("t_s,Tv,settlement_m_downwards_positive,"
+                      "mean_excess_pore_pressure_pa_compression_positive")
+        else:
+            Us, Up = self.degrees(rows)
+            table = np.column_stack([r[:, 0], r[:, 1], r[:, 2], Us, Up,
+                                     self.refs.degree(r[:, 1], "classic"),
+                                     self.refs.degree(r[:, 1], "consistent")])
+            names = "terzaghi" if self.refs.terzaghi else "classic"
+            header = ("t_s,Tv,settlement_m_downwards_positive,U_settlement,U_pressure,"
+                      f"U_{names},U_consistent")
         with output.atomic(path) as tmp:
-            np.savetxt(tmp, table, delimiter=",", comments="",
-                       header="t_s,Tv,settlement_m_downwards_positive,U_settlement,"
-                              "U_pressure,U_terzaghi,U_consistent")
+            np.savetxt(tmp, table, delimiter=",", comments="", header=header)
         return path
 
 
-def print_degree(comm, degree):
+def print_degree(comm, degree, surface):
+    """The table of U at the report times, or why there is none (``surface``: the
+    :class:`Surface` that measured them)."""
+    if not surface.valid:
+        PETSc.Sys.Print(f"Degree of consolidation: none ({surface.why})", comm=comm)
+        return
+    name = "Terzaghi" if surface.refs.terzaghi else "classic"
     lines = ["Degree of consolidation U from the surface settlement and from the mean pore "
              "pressure:",
-             f"{'T_v':>6s}{'s (mm)':>9s}{'U_s':>8s}{'U_p':>8s}{'Terzaghi':>10s}{'error':>9s}"
+             f"{'T_v':>6s}{'s (mm)':>9s}{'U_s':>8s}{'U_p':>8s}{name:>10s}{'error':>9s}"
              f"{'consistent':>12s}{'error':>9s}"]
     for r in degree:
         lines.append(f"{r['Tv']:6.2f}{1e3 * r['settlement_m']:9.4f}{r['U_settlement']:8.4f}"
@@ -150,16 +186,18 @@ def write_files(outputs, surface, rows, refs, Tv_end, cells):
     ``outputs`` (plan.Outputs); ``refs`` the plan's References, ``Tv_end`` the run's end,
     ``cells`` the figures' words for the grid ('Q4 1 x 10 cells'); rank 0."""
     ratio, folder, formats = refs.ratio, outputs.folder, outputs.formats
-    files = {"settlement_csv": surface.write_csv(folder, rows, ratio)}
-    if outputs.figures:
-        fig = figures.consolidation_degree(
-            output.pyplot(), np.array(rows, dtype=float).reshape(-1, 4)[:, 1],
-            *surface.degrees(rows), ratio, Tv_end, f"Degree of consolidation, {cells}")
-        files.update(output.save_figures(fig, folder, "settlement", formats))
-    if outputs.figures and surface.valid:      # a load case: its settlement has references
-        r = np.array(rows, dtype=float).reshape(-1, 4)
-        fig = figures.settlement_time(
-            output.pyplot(), r[:, 0], r[:, 2], surface.s0, surface.s_inf, refs.c_v, ratio,
-            surface.H, f"Surface settlement, {cells}")
-        files.update(output.save_figures(fig, folder, "settlement_time", formats))
+    files = {"settlement_csv": surface.write_csv(folder, rows)}
+    if not (outputs.figures and surface.valid):     # no U: no reference to draw against
+        return files
+    name = "Terzaghi" if refs.terzaghi else "Reference"
+    fig = figures.consolidation_degree(
+        output.pyplot(), np.array(rows, dtype=float).reshape(-1, 4)[:, 1],
+        *surface.degrees(rows), ratio, Tv_end, f"Degree of consolidation, {cells}",
+        refs.degree, name)
+    files.update(output.save_figures(fig, folder, "settlement", formats))
+    r = np.array(rows, dtype=float).reshape(-1, 4)
+    fig = figures.settlement_time(
+        output.pyplot(), r[:, 0], r[:, 2], surface.s0, surface.s_inf, refs.c_v, ratio,
+        surface.H, f"Surface settlement, {cells}", refs.degree, name, surface.s0_classic)
+    files.update(output.save_figures(fig, folder, "settlement_time", formats))
     return files

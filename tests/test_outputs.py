@@ -434,7 +434,7 @@ def test_restart_continues_series_and_settlement(cli, tmp_path):
 
 
 class _Points:
-    """What reporting.Depths reads of the material points: views and a generation."""
+    """What reporting.Heights reads of the material points: views and a generation."""
 
     def __init__(self, **fields):
         self.fields, self.generation = fields, 0
@@ -454,7 +454,7 @@ def test_report_errors_at_scale_cost_little_memory():
     from mpi4py import MPI
 
     from solver import analytic
-    from solver.reporting import Depths
+    from solver.reporting import Heights
 
     n, H, q = 200_000, 1.0, 1e4
     rng = np.random.default_rng(3)
@@ -463,14 +463,15 @@ def test_report_errors_at_scale_cost_little_memory():
     p = q * rng.random(n)
     V = rng.random(n) + 0.5
     points = _Points(x0=x0, p=p, volume=V)
-    refs = [lambda d: analytic.terzaghi(d, 0.1, H), lambda d: analytic.terzaghi(d, 1.3, H)]
-    depths = Depths(H)
+    refs = [lambda y: analytic.terzaghi(H - y, 0.1, H),
+            lambda y: analytic.terzaghi(H - y, 1.3, H)]
+    depths = Heights()
     peaks = []
     for _ in range(2):
         tracemalloc.start()
         got = depths.l2_errors(points, MPI.COMM_SELF, q, refs)
         peaks.append(tracemalloc.get_traced_memory()[1] / n)
         tracemalloc.stop()
-    want = [np.sqrt(np.sum(V * (p / q - f(H - y0)) ** 2) / np.sum(V)) for f in refs]
+    want = [np.sqrt(np.sum(V * (p / q - f(y0)) ** 2) / np.sum(V)) for f in refs]
     assert np.allclose(got, want, rtol=1e-12, atol=0)
     assert peaks[0] <= 64 and peaks[1] <= 24, peaks
