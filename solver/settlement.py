@@ -35,7 +35,7 @@ class Surface:
         """On ``grid`` with ``ppc`` points per cell per direction, a column of ``soil``
         and height H (m) under ``loading`` (scene.Loading)."""
         self.H, self.h = H, grid.h[1]
-        self.order = min(grid.p, ppc - 1)
+        self.order = min(grid.order, ppc - 1)
         E_c = soil.constrained_modulus
         undrained = E_c + soil.K_l / soil.porosity
         self.valid = loading.gravity == 0 and loading.load > 0
