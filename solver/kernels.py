@@ -244,9 +244,7 @@ def _hrz_weights(off, S):
         S[SW, a] = S[SN, a] * S[SN, a] * inv
 
 
-# Without fma: the corner terms' products rounded before they are added, as the step has
-# always rounded them (its results unchanged to the last bit).
-@njit(cache=True, error_model="numpy")
+@_jit
 def _blended(off, R, xi, eta, S):
     """The blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner
     nodes) and its derivatives into rows SNL, SLX, SLY, at natural coordinates (xi, eta)."""
