@@ -171,17 +171,17 @@ def _locate(C, R, x, y):
     return int(cx) * C[ISTX] + int(cy) * C[ISTY], tx, ty
 
 
-def _natural(off, x, y):
-    """N, dN/dxi, dN/deta at natural (x, y) of the cell type that len(off) names (4: Q4,
-    8: Q8, 9: Q9): the functions of solver.shapes."""
+def _rows(off, x, y, sx, sy):
+    """N, sx dN/dxi, sy dN/deta at natural (x, y) of the cell type that len(off) names (4:
+    Q4, 8: Q8, 9: Q9): the functions of solver.shapes."""
 
 
-@overload(_natural)
-def _natural_typed(off, x, y):
+@overload(_rows)
+def _rows_typed(off, x, y, sx, sy):
     # Chosen when the caller is compiled: the cell type is part of off's type.
-    return {4: lambda off, x, y: shapes.q4(x, y),
-            8: lambda off, x, y: shapes.q8(x, y),
-            9: lambda off, x, y: shapes.q9(x, y)}[len(off)]
+    return {4: lambda off, x, y, sx, sy: shapes.q4(x, y, sx, sy),
+            8: lambda off, x, y, sx, sy: shapes.q8(x, y, sx, sy),
+            9: lambda off, x, y, sx, sy: shapes.q9(x, y, sx, sy)}[len(off)]
 
 
 # The corner nodes in each cell type's numbering (shapes.corners), in the Q4 order.
@@ -200,7 +200,7 @@ _ZROWS = ((0.0,) * NFMAX,) * NS      # zeros, to allocate NS x NFMAX on a kernel
 @_jit
 def _scratch_rows(off):
     """A tuple of NS rows of the cell type's length (to allocate S on the stack)."""
-    r = _natural(off, 0.0, 0.0)
+    r = _rows(off, 0.0, 0.0, 1.0, 1.0)
     return r + r + (r[0],)
 
 
@@ -225,11 +225,7 @@ def _shape(off, C, R, x, y, S):
     of the pass.)"""
     base, tx, ty = _locate(C, R, x, y)
     xi, eta = tx * 2.0 - 1.0, ty * 2.0 - 1.0
-    _put(S, _natural(off, xi, eta))
-    sx, sy = R[RSX], R[RSY]
-    for a in range(len(off)):
-        S[SX, a] *= sx
-        S[SY, a] *= sy
+    _put(S, _rows(off, xi, eta, R[RSX], R[RSY]))
     return base, xi, eta
 
 
@@ -251,7 +247,7 @@ def _blended(off, R, xi, eta, S):
     nen, w = len(off), R[RBLEND]
     for a in range(nen):
         S[SNL, a], S[SLX, a], S[SLY, a] = w * S[SN, a], w * S[SX, a], w * S[SY, a]
-    n4, dx4, dy4 = shapes.q4(xi, eta)
+    n4, dx4, dy4 = shapes.q4(xi, eta, 1.0, 1.0)
     u = 1 - w
     ux, uy = u * R[RSX], u * R[RSY]     # (1 - w) d(xi)/dx, (1 - w) d(eta)/dy
     c = _CORNERS4 if nen == 4 else (_CORNERS8 if nen == 8 else _CORNERS9)
@@ -560,7 +556,7 @@ def project_back(off, C):
     offs = carray(_on_stack(off), nen)
     for k in range(C[PN]):
         base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
-        N = carray(_on_stack(_natural(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0)[0]), nen)
+        N = carray(_on_stack(_rows(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]), nen)
         s = 0.0
         for a in range(nen):
             s += N[a] * pn[base + offs[a]]

@@ -58,24 +58,28 @@ def quadratic(s):
 
 
 @_scalar
-def q4(x, y):
-    """N, dN/dxi, dN/deta of the Q4 cell at (xi, eta) = (x, y), three tuples over the nodes
-    in OFFSETS order: N_a = l_i(x) l_j(y) for node a = 2 j + i."""
+def q4(x, y, sx, sy):
+    """N, sx dN/dxi, sy dN/deta of the Q4 cell at (xi, eta) = (x, y), three tuples over the
+    nodes in OFFSETS order: N_a = l_i(x) l_j(y) for node a = 2 j + i. ``sx``, ``sy``:
+    d(xi)/dx, d(eta)/dy (1/m) for the derivatives in x and y, or 1.0 for the natural ones."""
     x0, x1, d0, d1 = linear(x)
     y0, y1, e0, e1 = linear(y)
     return ((x0 * y0, x1 * y0, x0 * y1, x1 * y1),
-            (d0 * y0, d1 * y0, d0 * y1, d1 * y1),
-            (x0 * e0, x1 * e0, x0 * e1, x1 * e1))
+            (d0 * y0 * sx, d1 * y0 * sx, d0 * y1 * sx, d1 * y1 * sx),
+            (x0 * e0 * sy, x1 * e0 * sy, x0 * e1 * sy, x1 * e1 * sy))
 
 
 @_scalar
-def q9(x, y):
-    """N, dN/dxi, dN/deta of the Q9 cell: N_a = l_i(x) l_j(y) for node a = 3 j + i."""
+def q9(x, y, sx, sy):
+    """N, sx dN/dxi, sy dN/deta of the Q9 cell (as :func:`q4`): N_a = l_i(x) l_j(y) for
+    node a = 3 j + i."""
     x0, x1, x2, d0, d1, d2 = quadratic(x)
     y0, y1, y2, e0, e1, e2 = quadratic(y)
     return ((x0 * y0, x1 * y0, x2 * y0, x0 * y1, x1 * y1, x2 * y1, x0 * y2, x1 * y2, x2 * y2),
-            (d0 * y0, d1 * y0, d2 * y0, d0 * y1, d1 * y1, d2 * y1, d0 * y2, d1 * y2, d2 * y2),
-            (x0 * e0, x1 * e0, x2 * e0, x0 * e1, x1 * e1, x2 * e1, x0 * e2, x1 * e2, x2 * e2))
+            (d0 * y0 * sx, d1 * y0 * sx, d2 * y0 * sx, d0 * y1 * sx, d1 * y1 * sx,
+             d2 * y1 * sx, d0 * y2 * sx, d1 * y2 * sx, d2 * y2 * sx),
+            (x0 * e0 * sy, x1 * e0 * sy, x2 * e0 * sy, x0 * e1 * sy, x1 * e1 * sy,
+             x2 * e1 * sy, x0 * e2 * sy, x1 * e2 * sy, x2 * e2 * sy))
 
 
 @_scalar
@@ -99,15 +103,17 @@ def _mid_y(a, x, y):
 
 
 @_scalar
-def q8(x, y):
-    """N, dN/dxi, dN/deta of the Q8 (serendipity) cell, nodes in the Q9 lattice order
-    without the centre (OFFSETS['q8'])."""
+def q8(x, y, sx, sy):
+    """N, sx dN/dxi, sy dN/deta of the Q8 (serendipity) cell (as :func:`q4`), nodes in the
+    Q9 lattice order without the centre (OFFSETS['q8'])."""
     n0, n1, n2 = _corner(-1.0, -1.0, x, y), _mid_x(-1.0, x, y), _corner(1.0, -1.0, x, y)
     n3, n4 = _mid_y(-1.0, x, y), _mid_y(1.0, x, y)
     n5, n6, n7 = _corner(-1.0, 1.0, x, y), _mid_x(1.0, x, y), _corner(1.0, 1.0, x, y)
     return ((n0[0], n1[0], n2[0], n3[0], n4[0], n5[0], n6[0], n7[0]),
-            (n0[1], n1[1], n2[1], n3[1], n4[1], n5[1], n6[1], n7[1]),
-            (n0[2], n1[2], n2[2], n3[2], n4[2], n5[2], n6[2], n7[2]))
+            (n0[1] * sx, n1[1] * sx, n2[1] * sx, n3[1] * sx, n4[1] * sx, n5[1] * sx,
+             n6[1] * sx, n7[1] * sx),
+            (n0[2] * sy, n1[2] * sy, n2[2] * sy, n3[2] * sy, n4[2] * sy, n5[2] * sy,
+             n6[2] * sy, n7[2] * sy))
 
 
 BASIS = {"q4": q4, "q8": q8, "q9": q9}
@@ -129,7 +135,7 @@ def evaluate(element: str, xi, eta):
     """
     xi = np.asarray(xi, dtype=float)
     eta = np.asarray(eta, dtype=float)
-    N, dx, dy = (np.stack(rows, axis=-1) for rows in BASIS[element](xi, eta))
+    N, dx, dy = (np.stack(rows, axis=-1) for rows in BASIS[element](xi, eta, 1.0, 1.0))
     return N, np.stack([dx, dy], axis=-1)
 
 
