@@ -122,7 +122,7 @@ def fixed_dt(p, grid) -> float:
     whose eigen analysis is dense: it would dominate the large models."""
     from solver.soil import Soil
 
-    spacing = min(p.size[0] / p.cells[0], p.size[1] / p.cells[1]) / grid.p
+    spacing = min(p.size[0] / p.cells[0], p.size[1] / p.cells[1]) / grid.order
     return min(1e-6, 0.25 * spacing / Soil.from_options(p).wave_speeds()["c1"])
 
 

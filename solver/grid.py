@@ -1,9 +1,10 @@
 """The structured background grid: a PETSc DMDA over the node lattice of a rectangle.
 
-Cells are ``hx x hy`` rectangles; a cell of order p (1 for Q4, 2 for Q8/Q9) spans p + 1
-lattice nodes per direction, so the lattice has ``p NX + 1`` by ``p NY + 1`` nodes with two
-displacement DOFs each (x, y). Cell (cx, cy) belongs to the rank that owns its lower-left
-node; the DMDA's box stencil of width p makes all its nodes visible there as ghosts.
+Cells are ``hx x hy`` rectangles; a cell of order ``order`` (1 for Q4, 2 for Q8/Q9) spans
+order + 1 lattice nodes per direction, so the lattice has ``order NX + 1`` by ``order NY + 1``
+nodes with two displacement DOFs each (x, y). Cell (cx, cy) belongs to the rank that owns its
+lower-left node; the DMDA's box stencil of width order makes all its nodes visible there as
+ghosts.
 """
 
 from __future__ import annotations
@@ -19,12 +20,13 @@ def _split(cells: int, parts: int):
     return [cells // parts + (1 if i < cells % parts else 0) for i in range(parts)]
 
 
-def partition(cells, p: int, size: int):
+def partition(cells, order: int, size: int):
     """Process grid and node ownership ranges that cut the lattice along cell boundaries.
 
-    Every rank gets whole cells, hence at least p node columns and rows, which the DMDA's
-    stencil of width p requires. Among the factorisations px * py = size with px <= NX and
-    py <= NY the one with the shortest cut wins. Raises InputError when none fits.
+    Every rank gets whole cells, hence at least ``order`` node columns and rows, which the
+    DMDA's stencil of width ``order`` requires. Among the factorisations px * py = size with
+    px <= NX and py <= NY the one with the shortest cut wins. Raises InputError when none
+    fits.
     """
     from .errors import InputError
 
@@ -44,7 +46,7 @@ def partition(cells, p: int, size: int):
     _, px, py = best
     ranges = []
     for n, parts in ((nx, px), (ny, py)):
-        nodes = [p * c for c in _split(n, parts)]
+        nodes = [order * c for c in _split(n, parts)]
         nodes[-1] += 1
         ranges.append(nodes)
     return (px, py), tuple(ranges)
@@ -56,16 +58,16 @@ class Grid:
     def __init__(self, comm, element: str, cells, size):
         self.comm = comm
         self.element = element
-        self.p = shapes.ORDER[element]
+        self.order = shapes.ORDER[element]
         self.cells = tuple(int(c) for c in cells)
         self.size = tuple(float(s) for s in size)
         self.h = (self.size[0] / self.cells[0], self.size[1] / self.cells[1])
-        self.nodes = (self.p * self.cells[0] + 1, self.p * self.cells[1] + 1)
+        self.nodes = (self.order * self.cells[0] + 1, self.order * self.cells[1] + 1)
         self.offsets = shapes.OFFSETS[element]
-        procs, ranges = partition(self.cells, self.p, comm.getSize())
+        procs, ranges = partition(self.cells, self.order, comm.getSize())
         self.da = PETSc.DMDA().create(dim=2, dof=2, sizes=self.nodes, proc_sizes=procs,
                                       ownership_ranges=ranges, stencil_type="box",
-                                      stencil_width=self.p, comm=comm)
+                                      stencil_width=self.order, comm=comm)
         self.da.setUniformCoordinates(0.0, self.size[0], 0.0, self.size[1])
         (self.xs, self.xe), (self.ys, self.ye) = self.da.getRanges()
         (self.gxs, self.gys), (self.gxm, self.gym) = self.da.getGhostCorners()
@@ -95,15 +97,15 @@ class Grid:
 
         ``owned_cells`` lists the same cells; the partition cuts the lattice along cell
         boundaries, so this rank's cells are exactly those of the box."""
-        p = self.p
-        return ((-(-self.xs // p), min(-(-self.xe // p), self.cells[0])),
-                (-(-self.ys // p), min(-(-self.ye // p), self.cells[1])))
+        order = self.order
+        return ((-(-self.xs // order), min(-(-self.xe // order), self.cells[0])),
+                (-(-self.ys // order), min(-(-self.ye // order), self.cells[1])))
 
     def cell_owner(self, cx, cy):
         """The rank that owns each cell (cx, cy): the owner of its lower-left node."""
         lx, ly = self.da.getOwnershipRanges()
-        px = np.searchsorted(np.cumsum(lx), self.p * np.asarray(cx), side="right")
-        py = np.searchsorted(np.cumsum(ly), self.p * np.asarray(cy), side="right")
+        px = np.searchsorted(np.cumsum(lx), self.order * np.asarray(cx), side="right")
+        py = np.searchsorted(np.cumsum(ly), self.order * np.asarray(cy), side="right")
         return py * len(lx) + px
 
     def locate(self, x):
@@ -117,8 +119,8 @@ class Grid:
 
     def cell_nodes(self, cx, cy):
         """Lattice indices (i, j) of the nodes of cells (cx, cy): two arrays (n, nen)."""
-        i = self.p * np.asarray(cx)[:, None] + self.offsets[None, :, 0]
-        j = self.p * np.asarray(cy)[:, None] + self.offsets[None, :, 1]
+        i = self.order * np.asarray(cx)[:, None] + self.offsets[None, :, 0]
+        j = self.order * np.asarray(cy)[:, None] + self.offsets[None, :, 1]
         return i, j
 
     # -- numbering -----------------------------------------------------------------------
@@ -133,7 +135,7 @@ class Grid:
 
     def lattice_coordinates(self):
         """Coordinates (m) of all lattice nodes in natural order (row by row), shape (N, 2)."""
-        hx, hy = self.h[0] / self.p, self.h[1] / self.p
+        hx, hy = self.h[0] / self.order, self.h[1] / self.order
         I, J = np.meshgrid(np.arange(self.nodes[0]), np.arange(self.nodes[1]), indexing="xy")
         return np.stack([I.ravel() * hx, J.ravel() * hy], axis=-1)
 

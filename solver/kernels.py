@@ -45,7 +45,9 @@ from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
-_jit = njit(cache=True, error_model="numpy", fastmath={"contract"})
+from . import shapes
+
+_jit = njit(cache=True, **shapes.KERNEL_OPTIONS)
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
@@ -169,84 +171,22 @@ def _locate(C, R, x, y):
     return int(cx) * C[ISTX] + int(cy) * C[ISTY], tx, ty
 
 
-@_jit
-def _q4(R, tx, ty):
-    """N, dN/dx, dN/dy (1, 1/m) of the Q4 cell, nodes (0,0), (1,0), (0,1), (1,1)."""
-    vx0, vx1, vy0, vy1 = 1.0 - tx, tx, 1.0 - ty, ty
-    # dl/dxi = -+1/2, so dl/dx = -+1/h exactly (a power-of-2 scaling).
-    dx0, dx1, dy0, dy1 = -0.5 * R[RSX], 0.5 * R[RSX], -0.5 * R[RSY], 0.5 * R[RSY]
-    return ((vy0 * vx0, vy0 * vx1, vy1 * vx0, vy1 * vx1),
-            (vy0 * dx0, vy0 * dx1, vy1 * dx0, vy1 * dx1),
-            (dy0 * vx0, dy0 * vx1, dy1 * vx0, dy1 * vx1))
-
-
-@_jit
-def _quadratic(t):
-    """1D quadratic Lagrange values and natural derivatives at t in [0, 1] (xi = 2 t - 1)."""
-    s = t * 2.0 - 1.0
-    return ((s - 1.0) * s / 2, 1.0 - s * s, (s + 1.0) * s / 2,
-            s - 0.5, s * -2.0, s + 0.5)
-
-
-@_jit
-def _q9(R, tx, ty):
-    """N, dN/dx, dN/dy of the Q9 cell: N_a = l_i(xi) l_j(eta) for node a = 3 j + i."""
-    x0, x1, x2, d0, d1, d2 = _quadratic(tx)
-    y0, y1, y2, e0, e1, e2 = _quadratic(ty)
-    sx, sy = R[RSX], R[RSY]
-    return ((y0 * x0, y0 * x1, y0 * x2, y1 * x0, y1 * x1, y1 * x2, y2 * x0, y2 * x1, y2 * x2),
-            (y0 * d0 * sx, y0 * d1 * sx, y0 * d2 * sx, y1 * d0 * sx, y1 * d1 * sx,
-             y1 * d2 * sx, y2 * d0 * sx, y2 * d1 * sx, y2 * d2 * sx),
-            (e0 * x0 * sy, e0 * x1 * sy, e0 * x2 * sy, e1 * x0 * sy, e1 * x1 * sy,
-             e1 * x2 * sy, e2 * x0 * sy, e2 * x1 * sy, e2 * x2 * sy))
-
-
-@_jit
-def _corner(a, b, x, y):
-    """Q8 corner node at natural (a, b): N and its natural derivatives at (x, y)."""
-    return (0.25 * (1 + a * x) * (1 + b * y) * (a * x + b * y - 1),
-            0.25 * a * (1 + b * y) * (2 * a * x + b * y),
-            0.25 * b * (1 + a * x) * (a * x + 2 * b * y))
-
-
-@_jit
-def _mid_x(b, x, y):
-    """Q8 mid-side node (0, b) on the edge eta = b."""
-    return 0.5 * (1 - x * x) * (1 + b * y), -x * (1 + b * y), 0.5 * b * (1 - x * x)
-
-
-@_jit
-def _mid_y(a, x, y):
-    """Q8 mid-side node (a, 0) on the edge xi = a."""
-    return 0.5 * (1 + a * x) * (1 - y * y), 0.5 * a * (1 - y * y), -y * (1 + a * x)
-
-
-@_jit
-def _q8(R, tx, ty):
-    """N, dN/dx, dN/dy of the Q8 (serendipity) cell, nodes in the Q9 lattice order without
-    the centre (shapes.OFFSETS['q8'])."""
-    x, y = tx * 2.0 - 1.0, ty * 2.0 - 1.0
-    n0, n1, n2 = _corner(-1.0, -1.0, x, y), _mid_x(-1.0, x, y), _corner(1.0, -1.0, x, y)
-    n3, n4 = _mid_y(-1.0, x, y), _mid_y(1.0, x, y)
-    n5, n6, n7 = _corner(-1.0, 1.0, x, y), _mid_x(1.0, x, y), _corner(1.0, 1.0, x, y)
-    sx, sy = R[RSX], R[RSY]
-    return ((n0[0], n1[0], n2[0], n3[0], n4[0], n5[0], n6[0], n7[0]),
-            (n0[1] * sx, n1[1] * sx, n2[1] * sx, n3[1] * sx, n4[1] * sx, n5[1] * sx,
-             n6[1] * sx, n7[1] * sx),
-            (n0[2] * sy, n1[2] * sy, n2[2] * sy, n3[2] * sy, n4[2] * sy, n5[2] * sy,
-             n6[2] * sy, n7[2] * sy))
-
-
-def _rows(off, R, tx, ty):
-    """N, dN/dx, dN/dy of the cell type that len(off) names (4: Q4, 8: Q8, 9: Q9)."""
+def _rows(off, x, y, sx, sy):
+    """N, sx dN/dxi, sy dN/deta at natural (x, y) of the cell type that len(off) names (4:
+    Q4, 8: Q8, 9: Q9): the functions of solver.shapes."""
 
 
 @overload(_rows)
-def _rows_typed(off, R, tx, ty):
+def _rows_typed(off, x, y, sx, sy):
     # Chosen when the caller is compiled: the cell type is part of off's type.
-    return {4: lambda off, R, tx, ty: _q4(R, tx, ty),
-            8: lambda off, R, tx, ty: _q8(R, tx, ty),
-            9: lambda off, R, tx, ty: _q9(R, tx, ty)}[len(off)]
+    return {4: lambda off, x, y, sx, sy: shapes.q4(x, y, sx, sy),
+            8: lambda off, x, y, sx, sy: shapes.q8(x, y, sx, sy),
+            9: lambda off, x, y, sx, sy: shapes.q9(x, y, sx, sy)}[len(off)]
+
+
+# The corner nodes in each cell type's numbering (shapes.corners), in the Q4 order.
+_CORNERS4, _CORNERS8, _CORNERS9 = (tuple(int(a) for a in shapes.corners(e))
+                                   for e in ("q4", "q8", "q9"))
 
 
 # Rows of a point's shape functions (the array S, on the kernel's stack): N, dN/dx, dN/dy
@@ -258,9 +198,9 @@ _ZROWS = ((0.0,) * NFMAX,) * NS      # zeros, to allocate NS x NFMAX on a kernel
 
 
 @_jit
-def _scratch_rows(off, R):
+def _scratch_rows(off):
     """A tuple of NS rows of the cell type's length (to allocate S on the stack)."""
-    r = _rows(off, R, 0.0, 0.0)
+    r = _rows(off, 0.0, 0.0, 1.0, 1.0)
     return r + r + (r[0],)
 
 
@@ -278,13 +218,15 @@ def _row_numbers(hrz, blend):
 
 @_jit
 def _shape(off, C, R, x, y, S):
-    """Shape functions N, dN/dx, dN/dy of the point at (x, y) (m) into rows SN, SX, SY of
-    S; the ghosted-local number of its cell's node (0, 0) and the local coordinates. (The
-    kernels add the HRZ and blended rows themselves: with them inside, this function grows
-    past what the compiler inlines, and a call per point costs a third of the pass.)"""
+    """Shape functions N, dN/dx, dN/dy (1, 1/m) of the point at (x, y) (m) into rows SN,
+    SX, SY of S; the ghosted-local number of its cell's node (0, 0) and the natural
+    coordinates. (The kernels add the HRZ and blended rows themselves: with them inside,
+    this function grows past what the compiler inlines, and a call per point costs a third
+    of the pass.)"""
     base, tx, ty = _locate(C, R, x, y)
-    _put(S, _rows(off, R, tx, ty))
-    return base, tx, ty
+    xi, eta = tx * 2.0 - 1.0, ty * 2.0 - 1.0
+    _put(S, _rows(off, xi, eta, R[RSX], R[RSY]))
+    return base, xi, eta
 
 
 @_jit
@@ -299,30 +241,20 @@ def _hrz_weights(off, S):
 
 
 @_jit
-def _blended(off, R, tx, ty, S):
+def _blended(off, R, xi, eta, S):
     """The blended basis N_hat = w N + (1 - w) N_Q4 (shapes.blended; N_Q4 on the corner
-    nodes) and its derivatives into rows SNL, SLX, SLY, at local coordinates (tx, ty)."""
+    nodes) and its derivatives into rows SNL, SLX, SLY, at natural coordinates (xi, eta)."""
     nen, w = len(off), R[RBLEND]
     for a in range(nen):
         S[SNL, a], S[SLX, a], S[SLY, a] = w * S[SN, a], w * S[SX, a], w * S[SY, a]
-    x, y = tx * 2.0 - 1.0, ty * 2.0 - 1.0
-    vx0, vx1, vy0, vy1 = (1 - x) / 2, (1 + x) / 2, (1 - y) / 2, (1 + y) / 2
+    n4, dx4, dy4 = shapes.q4(xi, eta, 1.0, 1.0)
     u = 1 - w
-    ux, uy = -0.5 * u * R[RSX], -0.5 * u * R[RSY]     # (1 - w) dl_0/dxi d(xi)/dx, ... dy
-    # The corners in the cell's numbering (shapes.corners), in the Q4 order.
-    c0, c1, c2, c3 = (0, 1, 2, 3) if nen == 4 else ((0, 2, 5, 7) if nen == 8 else (0, 2, 6, 8))
-    S[SNL, c0] += u * (vx0 * vy0)
-    S[SNL, c1] += u * (vx1 * vy0)
-    S[SNL, c2] += u * (vx0 * vy1)
-    S[SNL, c3] += u * (vx1 * vy1)
-    S[SLX, c0] += ux * vy0
-    S[SLX, c1] -= ux * vy0
-    S[SLX, c2] += ux * vy1
-    S[SLX, c3] -= ux * vy1
-    S[SLY, c0] += uy * vx0
-    S[SLY, c1] += uy * vx1
-    S[SLY, c2] -= uy * vx0
-    S[SLY, c3] -= uy * vx1
+    ux, uy = u * R[RSX], u * R[RSY]     # (1 - w) d(xi)/dx, (1 - w) d(eta)/dy
+    c = _CORNERS4 if nen == 4 else (_CORNERS8 if nen == 8 else _CORNERS9)
+    for k in range(4):
+        S[SNL, c[k]] += u * n4[k]
+        S[SLX, c[k]] += ux * dx4[k]
+        S[SLY, c[k]] += uy * dy4[k]
 
 
 # -- points to grid -------------------------------------------------------------------------
@@ -344,18 +276,18 @@ def points_to_grid(off, C, hrz, blend):
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
     offs = carray(_on_stack(off), nen)
-    S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
+    S = carray(_on_stack(_scratch_rows(off)), (NS, nen))
     # Row sums with the element's basis: the point's coefficients per row of S and nodal
     # field, node a's field f gaining sum_r S[r, a] K[r, f]; zero except where every point
     # writes them.
     K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
     for k in range(n):
-        base, tx, ty = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
+        base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None:
             _hrz_weights(off, S)
         if blend is not None:
-            _blended(off, R, tx, ty, S)
+            _blended(off, R, xn, yn, S)
         Vk, p = V[k], pp[k]
         t00, t11 = p - sig[k, 0], p - sig[k, 1]
         if eta:
@@ -506,17 +438,17 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
         pacc[:] = 0.0
     nen = len(off)
     offs = carray(_on_stack(off), nen)
-    S = carray(_on_stack(_scratch_rows(off, R)), (NS, nen))
+    S = carray(_on_stack(_scratch_rows(off)), (NS, nen))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
     # Sums over nodes of S[r, a] O[a, f] per row of S: N, dN/dx, dN/dy (and blended N_hat).
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))
     nr = 3 if blend is None else NS
     for k in range(n):
-        base, tx, ty = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
+        base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None and project:
             _hrz_weights(off, S)                  # the projection's weights only
         if blend is not None:
-            _blended(off, R, tx, ty, S)
+            _blended(off, R, xn, yn, S)
         A[:nr, :NG] = 0.0
         for a in range(nen):
             h = On[base + offs[a]]
@@ -624,7 +556,7 @@ def project_back(off, C):
     offs = carray(_on_stack(off), nen)
     for k in range(C[PN]):
         base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
-        N = carray(_on_stack(_rows(off, R, tx, ty)[0]), nen)
+        N = carray(_on_stack(_rows(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]), nen)
         s = 0.0
         for a in range(nen):
             s += N[a] * pn[base + offs[a]]

@@ -39,7 +39,7 @@ class Surface:
         """On ``grid`` with ``ppc`` points per cell per direction, a column of ``soil``
         and height H (m) under ``loading`` (scene.Loading), with the references ``refs``."""
         self.H, self.h, self.refs = H, grid.h[1], refs
-        self.order = min(grid.p, ppc - 1)
+        self.order = min(grid.order, ppc - 1)
         E_c = soil.constrained_modulus
         undrained = E_c + soil.K_l / soil.porosity
         q = loading.load

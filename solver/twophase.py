@@ -205,11 +205,11 @@ class TwoPhase:
         """Owned nodal forces (N per m depth) of a downward pressure q on the top edge."""
         g = self.grid
         s, w = shapes.gauss_1d(3)
-        N = shapes.lagrange1d(g.p, s)[0]                  # 1D edge shape functions
+        N = shapes.lagrange1d(g.order, s)[0]                  # 1D edge shape functions
         edge = (w[:, None] * N).sum(axis=0) * g.h[0] / 2    # integral of each over one edge
         top = np.zeros(g.nodes[0])
-        for a in range(g.p + 1):
-            top[a:a + g.p * g.cells[0]:g.p] += edge[a]
+        for a in range(g.order + 1):
+            top[a:a + g.order * g.cells[0]:g.order] += edge[a]
         force = np.zeros(((g.ye - g.ys), (g.xe - g.xs)))
         if g.ye == g.nodes[1]:
             force[-1] = -q * top[g.xs:g.xe]
@@ -223,8 +223,8 @@ class TwoPhase:
         I[K.IBLEND], I[K.IHRZ], I[K.IPROJ], I[K.IIMPL] = (self.blend, self.hrz, self.project,
                                                           self.implicit)
         I[K.ICMX], I[K.ICMY] = g.cells[0] - 1, g.cells[1] - 1
-        # Ghosted-local node of local node a of cell (cx, cy): p cx + p gxm cy + off[a].
-        I[K.ISTX], I[K.ISTY] = g.p, g.p * g.gxm
+        # Ghosted-local node of local node a of cell (cx, cy): order (cx + gxm cy) + off[a].
+        I[K.ISTX], I[K.ISTY] = g.order, g.order * g.gxm
         I[K.INOWN] = self.nown
 
     def _reals(self):

@@ -2,8 +2,9 @@
 
 import numpy as np
 import pytest
+from numba import njit
 
-from solver import shapes
+from solver import kernels, shapes
 
 ELEMENTS = ("q4", "q8", "q9")
 NEN = {"q4": 4, "q8": 8, "q9": 9}
@@ -111,3 +112,66 @@ def test_gauss_points_integrate_exactly(n):
     for k in range(2 * n):
         exact = (1 - (-1) ** (k + 1)) / (k + 1)
         assert np.dot(w, s ** k) == pytest.approx(exact, abs=1e-14)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_lagrange1d_interpolates_its_nodes(order):
+    """1 at its own node, 0 at the others; derivatives sum to 0 and match differences."""
+    nodes = np.linspace(-1, 1, order + 1)
+    v, _ = shapes.lagrange1d(order, nodes)
+    np.testing.assert_allclose(v, np.eye(order + 1), rtol=0, atol=1e-15)
+    s, h = np.linspace(-0.9, 0.9, 7), 1e-6
+    _, d = shapes.lagrange1d(order, s)
+    fd = (shapes.lagrange1d(order, s + h)[0] - shapes.lagrange1d(order, s - h)[0]) / (2 * h)
+    np.testing.assert_allclose(d, fd, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(d.sum(axis=1), 0.0, rtol=0, atol=1e-15)
+
+
+@njit
+def _kernel_rows(off, C, R, x, blend):
+    """The step kernels' rows of S at points x (n, 2): N, dN/dx, dN/dy and, with ``blend``,
+    N_hat and its derivatives; the cells' base nodes and the natural coordinates used."""
+    n = x.shape[0]
+    S = np.zeros((n, kernels.NS, len(off)))
+    base = np.zeros(n, dtype=np.int64)
+    nat = np.zeros((n, 2))
+    for k in range(n):
+        base[k], nat[k, 0], nat[k, 1] = kernels._shape(off, C, R, x[k, 0], x[k, 1], S[k])
+        if blend:
+            kernels._blended(off, R, nat[k, 0], nat[k, 1], S[k])
+    return S, base, nat
+
+
+@pytest.mark.parametrize("element", ELEMENTS)
+def test_step_kernels_use_the_same_functions(element):
+    """The explicit step's shape functions (kernels._shape: the point's cell and natural
+    coordinates, the formulas of solver.shapes compiled with the kernels' options, d/dx =
+    2/h d/dxi) and blended basis (kernels._blended) equal shapes.evaluate and
+    shapes.blended at the same natural coordinates, at random points of a 4 x 2 grid;
+    evaluate itself is checked against independent references above. Fused multiply-adds
+    in the kernels may move the last bits only."""
+    hx, hy, cells, stride = 0.25, 0.5, (4, 2), 9
+    R = np.zeros(kernels.NR)
+    R[kernels.RHX], R[kernels.RHY] = hx, hy
+    R[kernels.RSX], R[kernels.RSY] = 2 / hx, 2 / hy
+    R[kernels.RBLEND] = shapes.BLEND
+    C = kernels.context({kernels.AR: R})
+    order = shapes.ORDER[element]
+    C[kernels.ICMX], C[kernels.ICMY] = cells[0] - 1, cells[1] - 1
+    C[kernels.ISTX], C[kernels.ISTY] = order, order * stride
+    off = tuple(int(i + stride * j) for i, j in shapes.OFFSETS[element])
+    x = np.random.default_rng(4).uniform(0, 1, size=(300, 2)) * [cells[0] * hx, cells[1] * hy]
+    S, base, nat = _kernel_rows(off, C, R, x, True)
+
+    cx, cy = np.floor(x[:, 0] / hx), np.floor(x[:, 1] / hy)
+    np.testing.assert_array_equal(base, order * (cx + stride * cy))
+    np.testing.assert_allclose(nat, 2 * (x / [hx, hy] - np.stack([cx, cy], -1)) - 1,
+                               rtol=0, atol=1e-14)
+    N, dN = shapes.evaluate(element, nat[:, 0], nat[:, 1])
+    Nh, dNh = shapes.blended(element, N, dN, nat[:, 0], nat[:, 1])
+    eps = np.finfo(float).eps
+    for rows, (n, d) in (((kernels.SN, kernels.SX, kernels.SY), (N, dN)),
+                         ((kernels.SNL, kernels.SLX, kernels.SLY), (Nh, dNh))):
+        np.testing.assert_allclose(S[:, rows[0]], n, rtol=0, atol=8 * eps)
+        np.testing.assert_allclose(S[:, rows[1]], d[..., 0] * 2 / hx, rtol=0, atol=32 * eps / hx)
+        np.testing.assert_allclose(S[:, rows[2]], d[..., 1] * 2 / hy, rtol=0, atol=32 * eps / hy)
