@@ -486,7 +486,7 @@ def table(spec=None, values=None) -> str:
             f"|---|{value_rule}---|---|---|"]
     for o in spec:
         value = f"`{values[o.name]}` | " if values is not None else ""
-        rows.append(f"| `-{PREFIX}{o.name}` | {value}`{_describe(o, o.default) or 'none'}` | "
+        rows.append(f"| `-{PREFIX}{o.name}` | {value}`{_describe(o, o.default)}` | "
                     f"{', '.join(o.used_by)} | {o.help} |")
     return "\n".join(rows)
 
