@@ -14,7 +14,6 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import shapes
-from .soil import elasticity
 
 
 @dataclass
@@ -67,9 +66,11 @@ def strain_matrix(dNdx) -> np.ndarray:
 
 
 def point_matrices(interp: Interpolation, D, volume, mass):
-    """Each point's stiffness (N/m) and consistent mass (kg) blocks, (np, 2 nen, 2 nen)."""
+    """Each point's stiffness (N/m) and consistent mass (kg) blocks, (np, 2 nen, 2 nen);
+    D (Pa) is one 3 x 3 matrix for all points or one per point, (np, 3, 3)."""
     B = strain_matrix(interp.dNdx)
-    Ke = np.einsum("pki,kl,plj->pij", B, D, B, optimize=True) * volume[:, None, None]
+    Ke = np.einsum("pki,kl,plj->pij" if np.ndim(D) == 2 else "pki,pkl,plj->pij", B, D, B,
+                   optimize=True) * volume[:, None, None]
     NN = mass[:, None, None] * interp.N[:, :, None] * interp.N[:, None, :]
     Me = np.zeros_like(Ke)
     Me[:, 0::2, 0::2] = NN
@@ -100,14 +101,16 @@ def free_dofs(M, fixed, comm) -> PETSc.IS:
                                     comm=comm)
 
 
-def stiffness_and_mass(grid, points, E, nu, bcs):
+def stiffness_and_mass(grid, points, D, bcs):
     """K and consistent M restricted to the free DOFs, and the IS of those DOFs.
 
+    ``D``: the plane-strain elasticity (Pa), a 3 x 3 matrix for every point or a function
+    of the points' heights y (m) giving one per point, (np, 3, 3) (a layered soil).
     Returns ``(K_free, M_free, free_is)``; K in N/m, M in kg, per metre of out-of-plane depth.
     """
     x, volume, mass = points.get("x", "volume", "mass")
     interp = interpolation(grid, x)
-    Ke, Me = point_matrices(interp, elasticity(E, nu), volume, mass)
+    Ke, Me = point_matrices(interp, D(x[:, 1]) if callable(D) else D, volume, mass)
     K = assemble(grid.da, Ke, interp.dofs)
     M = assemble(grid.da, Me, interp.dofs)
     free = free_dofs(M, grid.constrained_mask(bcs), grid.comm)

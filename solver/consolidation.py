@@ -71,6 +71,11 @@ def _validate(p) -> tuple:
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
+    from .soil import Ground      # checks -mpm_layers and the per-layer values
+
+    if Ground.from_options(p).count > 1:
+        raise InputError(f"-mpm_layers {','.join(f'{t:g}' for t in p.layers)}: layered "
+                         "consolidation is not supported yet (the eigen analysis takes layers)")
     return p, notes
 
 

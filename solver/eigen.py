@@ -2,8 +2,10 @@
 
 K phi = omega^2 M phi with the material-point K and consistent M, solved by our generalized
 Jacobi solver (:mod:`solver.jacobi`) and by SLEPc's Krylov-Schur, cross-checked (relative
-eigenvalue difference, modal assurance criterion), and set beside the analytic 1D rod and the
-plain FE model of the same mesh (points at Gauss points).
+eigenvalue difference, modal assurance criterion), and set beside the 1D rod and the plain FE
+model of the same mesh (points at Gauss points). A column of layers (``-mpm_layers``) gives
+each point its layer's density and elasticity; its rod is the layered one of
+:mod:`solver.layered` (a transfer-matrix solution).
 """
 
 from __future__ import annotations
@@ -15,13 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, jacobi, memory, output, provenance, signals
+from . import analytic, jacobi, layered, memory, output, provenance, signals
 from .errors import InputError, InternalError, Interrupted, NumericalError, agree
 from .failure import RunFailure
 from .frequency import frequencies, slepc_solve
 from .plan import Outputs
 from .scene import Body, build, destroy
-from .soil import Soil
+from .soil import Ground
 
 # Table 3 of the paper (Hz): the MP models of a 1 x 10 grid over the 0.1 m x 1 m column.
 PAPER_TABLE3 = {"q4": [16.92, 51.27, 87.24, 126.03, 168.95],
@@ -72,6 +74,25 @@ def rod_applies(body) -> bool:
             and bcs["top"] == "none")
 
 
+def rod_frequencies(ground, nmodes) -> np.ndarray:
+    """The 1D rod's natural frequencies (Hz) of a column of ``ground`` (soil.Ground): the
+    analytic rod for one layer, the transfer-matrix rod of :mod:`solver.layered` for more."""
+    if ground.count == 1:
+        soil = ground.soils[0]
+        return analytic.rod_frequencies(soil.constrained_modulus, soil.density, ground.height,
+                                        nmodes)
+    return layered.rod_frequencies(ground.thickness, ground.per_layer("constrained_modulus"),
+                                   ground.per_layer("density"), nmodes)
+
+
+def rod_shapes(ground, nmodes, y) -> np.ndarray:
+    """The rod's mode shapes (nmodes x heights, 1 at the top) at heights ``y`` (m)."""
+    if ground.count == 1:
+        return np.array([analytic.rod_mode(y, ground.height, k + 1) for k in range(nmodes)])
+    return layered.rod_modes(ground.thickness, ground.per_layer("constrained_modulus"),
+                             ground.per_layer("density"), nmodes, y)
+
+
 def rigid(freq, scale) -> np.ndarray:
     """Which of the frequencies ``freq`` (Hz) are rigid-body modes: below ZERO_HZ x ``scale``
     (the rod's first frequency c / 4H, the column's own frequency scale, Hz)."""
@@ -106,13 +127,13 @@ def zero_energy_diagnosis(body, nmodes, freq, rod):
 
 @dataclass(frozen=True)
 class EigenPlan:
-    """An eigen analysis, as typed values: the ``body`` (scene.Body) made of ``soil``
-    (soil.Soil), the ``nmodes`` lowest modes by ``solvers`` (jacobi, slepc), Jacobi's
-    tolerance ``jacobi_tol`` and ``jacobi_max_sweeps``, where the results go
-    (plan.Outputs) and the options as the provenance records them."""
+    """An eigen analysis, as typed values: the ``body`` (scene.Body) made of ``ground``
+    (soil.Ground: its layers, one Soil each), the ``nmodes`` lowest modes by ``solvers``
+    (jacobi, slepc), Jacobi's tolerance ``jacobi_tol`` and ``jacobi_max_sweeps``, where the
+    results go (plan.Outputs) and the options as the provenance records them."""
 
     body: Body
-    soil: Soil
+    ground: Ground
     nmodes: int
     solvers: tuple
     jacobi_tol: float
@@ -122,8 +143,8 @@ class EigenPlan:
 
     @classmethod
     def from_options(cls, p) -> "EigenPlan":
-        return cls(Body.from_options(p), Soil.from_options(p), p.nmodes, tuple(p.eigen_solver),
-                   p.jacobi_tol, p.jacobi_max_sweeps,
+        return cls(Body.from_options(p), Ground.from_options(p), p.nmodes,
+                   tuple(p.eigen_solver), p.jacobi_tol, p.jacobi_max_sweeps,
                    Outputs(p.output, p.summary or os.path.join(p.output, "summary.json"),
                            p.figures, p.figure_format), provenance.options(p))
 
@@ -133,8 +154,11 @@ def mac(a, b) -> float:
     return a.dot(b) ** 2 / (a.dot(a) * b.dot(b))
 
 
-def is_paper_scene(body, soil) -> bool:
-    """Whether ``body`` of ``soil`` is the paper's column (its Table 3 applies)."""
+def is_paper_scene(body, ground) -> bool:
+    """Whether ``body`` of ``ground`` is the paper's column (its Table 3 applies)."""
+    if ground.count > 1:
+        return False
+    soil = ground.soils[0]
     return (tuple(body.cells) == (1, 10) and np.allclose(body.size, (0.1, 1.0))
             and soil.E == 10e6 and soil.nu == 0.0 and body.placement == "uniform"
             and body.ppc == (2 if body.element == "q4" else 3)
@@ -203,10 +227,10 @@ def _analyse(plan, comm, ctx) -> dict:
 def _analysis(plan, comm, ctx, owned) -> dict:
     """The analysis itself; ``ctx`` follows it for the failure handler, and what it makes
     goes on ``owned`` (an ExitStack: destroyed last made, first)."""
-    body, soil, nmodes = plan.body, plan.soil, plan.nmodes
+    body, ground, nmodes = plan.body, plan.ground, plan.nmodes
     memory.check(body, "jacobi" in plan.solvers)
     with PETSc.Log.Stage("Assembly"):
-        made = build(comm, body, soil)
+        made = build(comm, body, ground)
     owned.callback(destroy, *reversed(made))
     grid, points, K, M, free = made
     n = K.getSize()[0]
@@ -216,6 +240,7 @@ def _analysis(plan, comm, ctx, owned) -> dict:
         raise InputError(f"-mpm_nmodes {nmodes}: the model has only {n} free DOFs")
     PETSc.Sys.Print(f"Eigen analysis: {body.element.upper()}, {body.cells[0]} x "
                     f"{body.cells[1]} cells, "
+                    + (f"{ground.count} layers, " if ground.count > 1 else "") +
                     f"{points.n_global} material points, {n} free DOFs, {comm.getSize()} rank(s)",
                     comm=comm)
 
@@ -223,11 +248,10 @@ def _analysis(plan, comm, ctx, owned) -> dict:
                                    "element": body.element, "cells": list(body.cells),
                                    "size_m": list(body.size), "ppc": body.ppc,
                                    "points": body.placement, "n_points": points.n_global,
-                                   "density_kg_m3": soil.density,
+                                   **_materials(ground),
                                    "provenance": provenance.collect(comm, plan.provenance)}
     ctx.summary, ctx.freq = summary, freq
-    rod = analytic.rod_frequencies(soil.constrained_modulus, soil.density, body.height,
-                                   nmodes)
+    rod = rod_frequencies(ground, nmodes)
     warnings = []          # Jacobi's, then the zero-energy modes'
     if "jacobi" in plan.solvers:
         freq["jacobi"], vecs["jacobi"], summary["jacobi"], warnings = _jacobi(
@@ -272,6 +296,15 @@ def _analysis(plan, comm, ctx, owned) -> dict:
                                       refs["rod_hz"], scale, summary)
     PETSc.Sys.Print(output.results_line(plan.outputs.folder, summary["files"]), comm=comm)
     return summary
+
+
+def _materials(ground) -> dict:
+    """The summary's materials: the density (kg/m3), per layer with the thicknesses (m,
+    from the surface down) for a layered column."""
+    if ground.count == 1:
+        return {"density_kg_m3": ground.soils[0].density}
+    return {"density_kg_m3": list(ground.per_layer("density")),
+            "layers_m": list(ground.thickness)}
 
 
 def _cross_check(freq, vecs, scale) -> dict:
@@ -321,7 +354,7 @@ def _references(plan, comm, rod, owned) -> dict:
     model (Gauss points) of the same mesh, and on the paper's scene its Table 3 (Hz)."""
     body, nmodes = plan.body, plan.nmodes
     fe_ppc = 2 if body.element == "q4" else 3
-    gauss = build(comm, body, plan.soil, placement="gauss", ppc=fe_ppc)
+    gauss = build(comm, body, plan.ground, placement="gauss", ppc=fe_ppc)
     owned.callback(destroy, *reversed(gauss))
     _, _, Kg, Mg, _ = gauss
     # Its own options prefix: -eps_* tune the main solve, -fe_eps_* this one.
@@ -330,7 +363,7 @@ def _references(plan, comm, rod, owned) -> dict:
     fe = frequencies(res.values)
     # The rod column only where the rod is the scene (not for a free body, say).
     refs = {"rod_hz": rod if rod_applies(body) else None, "fe_gauss_hz": fe}
-    if is_paper_scene(body, plan.soil):
+    if is_paper_scene(body, plan.ground):
         refs["paper_table3_hz"] = PAPER_TABLE3[body.element][:nmodes]
         refs["paper_abaqus_cpe8_hz"] = PAPER_ABAQUS_CPE8[:nmodes]
     return refs
@@ -393,18 +426,24 @@ def _write_results(plan, grid, free, vectors, freqs, rod, scale, summary):
     output.write_vtu(files["modes_vtu"], coords, [output.grid_cells(grid)], point_data=data,
                      field_data={"frequency_hz": np.asarray(freqs[:len(modes)], dtype=float)})
     if out.figures:
-        fig = mode_figure(grid, coords, modes, freqs, rod, plan.body.height, scale)
+        fig = mode_figure(grid, coords, modes, freqs, rod, plan.ground, scale)
         files.update(output.save_figures(fig, out.folder, "modes", out.formats))
     output.write_json(summary_path, dict(summary, files=files))
     return files
 
 
-def mode_figure(grid, coords, modes, freqs, rod, H, scale):
+def mode_figure(grid, coords, modes, freqs, rod, ground, scale):
     """Mode shapes like the paper's Figure 2: deformed grids coloured by the displacement
     magnitude (a colour bar: |u| over the mode's largest) and u_y along the column, beside
-    the rod's mode where the rod is the scene (``rod`` None: not); the caller saves it."""
+    the rod's mode where the rod is the scene (``rod`` None: not), of the column of
+    ``ground`` (soil.Ground: its layer interfaces are drawn); the caller saves it."""
     plt = output.pyplot()
-    nm = len(modes)
+    nm, H = len(modes), ground.height
+    yy = np.linspace(0, H, 200)
+    shapes = None
+    if rod is not None:        # scaled as the MPM's u_y: the largest |u_y| is 1
+        shapes = rod_shapes(ground, nm, yy)
+        shapes /= np.abs(shapes).max(axis=1, keepdims=True)
     fig, axes = plt.subplots(2, nm, figsize=(2.2 * nm + 0.8, 7), squeeze=False,
                              gridspec_kw={"height_ratios": [3, 2]})
     W = grid.size[0]
@@ -431,12 +470,12 @@ def mode_figure(grid, coords, modes, freqs, rod, H, scale):
         order = np.argsort(y)
         uy = u[centre, 1][order]
         ax.plot(uy / max(np.abs(uy).max(), 1e-300), y[order], "o-", ms=3, label="MPM")
-        if rod is not None:
-            yy = np.linspace(0, H, 200)
-            shape = analytic.rod_mode(yy, H, k + 1)
-            shape *= np.sign(np.dot(analytic.rod_mode(y[order], H, k + 1), uy)) or 1.0
+        if shapes is not None:
+            shape = shapes[k] * (np.sign(np.dot(np.interp(y[order], yy, shapes[k]), uy)) or 1.0)
             ax.plot(shape, yy, "k--", lw=0.8,
                     label=f"rod {hz(rod[k])} Hz" if k < len(rod) else "rod")
+        for level in ground.bottoms[:-1]:          # the layer interfaces
+            ax.axhline(level, color="tab:brown", lw=0.7, ls=":")
         ax.set_xlabel("u_y (normalised)", fontsize=8)
         if k == 0:
             ax.set_ylabel("height y (m)")

@@ -34,7 +34,8 @@ BC_CHOICES = ("none", "x", "y", "xy")
 @dataclass(frozen=True)
 class Option:
     name: str            # without the prefix
-    kind: str            # "str", "int", "float", "bool", "ints", "floats", "strs"
+    kind: str            # "str", "int", "float", "bool", "ints", "floats", "strs",
+    #                      "float_or_floats" (one value: a float; several: a tuple, per layer)
     default: object
     help: str
     used_by: tuple = BOTH
@@ -107,11 +108,18 @@ SPEC = [
     Option("ppc", "int", 2, "material points per cell per direction", check=_at_least_one),
     Option("points", "str", "uniform", "point placement: uniform (sub-cell centres, MPM) or "
            "gauss (Gauss points: the plain FE model)", choices=("uniform", "gauss")),
-    Option("E", "float", 10.0e6, "Young's modulus of the soil skeleton (Pa)", check=_positive),
-    Option("nu", "float", 0.0, "Poisson's ratio", check=_poisson),
-    Option("rho_s", "float", 2700.0, "solid grain density (kg/m3)", check=_positive),
+    Option("layers", "floats", (), "thicknesses of horizontal soil layers from the surface "
+           "down, t1,t2,... (m), summing to the height H, each at least a cell high, the "
+           "interfaces on cell boundaries; default: one layer. Options 'per layer' take one "
+           "value (every layer) or one per layer, in this order",
+           check=_all_positive),
+    Option("E", "float_or_floats", 10.0e6, "Young's modulus of the soil skeleton (Pa), per "
+           "layer", check=_positive),
+    Option("nu", "float_or_floats", 0.0, "Poisson's ratio, per layer", check=_poisson),
+    Option("rho_s", "float_or_floats", 2700.0, "solid grain density (kg/m3), per layer",
+           check=_positive),
     Option("rho_l", "float", 1000.0, "liquid density (kg/m3)", check=_positive),
-    Option("porosity", "float", 0.3, "porosity n", check=_open_unit),
+    Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=_open_unit),
     Option("bc_left", "str", "x", "fixed displacement components on x = 0", choices=BC_CHOICES),
     Option("bc_right", "str", "x", "fixed displacement components on x = W", choices=BC_CHOICES),
     Option("bc_bottom", "str", "xy", "fixed displacement components on y = 0",
@@ -129,8 +137,8 @@ SPEC = [
     Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", (CONSOLIDATION,), _positive),
     Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", (CONSOLIDATION,),
            _positive),
-    Option("k", "float", 2.5e-4, "hydraulic conductivity (m/s), defined with g = 9.81 m/s2",
-           (CONSOLIDATION,), _positive),
+    Option("k", "float_or_floats", 2.5e-4, "hydraulic conductivity (m/s), defined with g = "
+           "9.81 m/s2, per layer", (CONSOLIDATION,), _positive),
     Option("gravity", "float", 0.0, "body force, acting downwards (m/s2)", (CONSOLIDATION,),
            _nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
@@ -267,10 +275,13 @@ def _parse_int(text):
 def _parse(opt: Option, text: str):
     scalar = {"int": _parse_int, "ints": _parse_int,
               "float": _parse_float, "floats": _parse_float}.get(opt.kind, str.strip)
-    if opt.kind in ("ints", "floats", "strs"):
+    if opt.kind in ("ints", "floats", "strs", "float_or_floats"):
         parts = [p.strip() for p in text.split(",")]
         if any(p == "" for p in parts):
             raise ValueError("malformed list (empty entry)")
+        if opt.kind == "float_or_floats":    # one value stays a float, as a "float" option's
+            values = tuple(_parse_float(p) for p in parts)
+            return values[0] if len(values) == 1 else values
         value = tuple(scalar(p) for p in parts)
         if opt.length and len(value) != opt.length:
             raise ValueError(f"needs {opt.length} comma-separated values")
@@ -286,6 +297,9 @@ def _check_value(opt: Option, value):
         bad = [v for v in values if v not in opt.choices]
         if bad:
             return f"unknown value '{bad[0]}' (choose from {', '.join(opt.choices)})"
+    if opt.kind == "float_or_floats" and isinstance(value, tuple) and opt.check:
+        return next((f"layer {i + 1}: {problem}" for i, v in enumerate(value)
+                     if (problem := opt.check(v))), None)
     return opt.check(value) if opt.check else None
 
 
@@ -295,7 +309,7 @@ def _describe(opt: Option, value) -> str:
 
 def _from_json(opt: Option, value):
     """A value as JSON holds it (a checkpoint's options): lists as tuples, null as NaN."""
-    if value is None and opt.kind == "float":
+    if value is None and opt.kind in ("float", "float_or_floats"):
         return math.nan
     return tuple(value) if isinstance(value, list) else value
 

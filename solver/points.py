@@ -111,8 +111,9 @@ class MaterialPoints:
         self.destroy()
 
 
-def place(grid, ppc: int, rho: float, placement: str = "uniform", fields=None):
-    """Points of the owned cells: ppc x ppc per cell, of density rho (kg/m3).
+def place(grid, ppc: int, rho, placement: str = "uniform", fields=None):
+    """Points of the owned cells: ppc x ppc per cell, of density rho (kg/m3): a number, or a
+    function of the points' heights y (m) giving each point's (a layered soil).
 
     ``placement='uniform'`` puts them at the centres of a uniform ppc x ppc subdivision of each
     cell (the MPM set-up of the paper); ``'gauss'`` at Gauss points with the Gauss weights as
@@ -133,5 +134,5 @@ def place(grid, ppc: int, rho: float, placement: str = "uniform", fields=None):
     with mp.fields("x", "volume", "mass") as (fx, fv, fm):
         fx[:] = x
         fv[:] = volume
-        fm[:] = rho * volume
+        fm[:] = (rho(x[:, 1]) if callable(rho) else rho) * volume
     return mp

@@ -3,7 +3,8 @@
 A scene is the body (a ``W x H`` rectangle of soil, ``-mpm_size``), its background grid
 (``-mpm_element``, ``-mpm_cells``), its material points (``-mpm_ppc``, ``-mpm_points``), the
 fixed displacement components on its sides (``-mpm_bc_*``) and its materials (the soil's
-``-mpm_E``, ``-mpm_nu``, the solid and liquid densities and the porosity). The analyses
+``-mpm_E``, ``-mpm_nu``, the solid and liquid densities and the porosity, per layer of
+``-mpm_layers`` in the eigen model). The analyses
 (:mod:`solver.eigen`, :mod:`solver.consolidation`) and the modules that serve them
 (:mod:`solver.timestep`, :mod:`solver.twophase`, the scripts) build it here, so that they
 build the same thing and none of them depends on another analysis.
@@ -106,16 +107,22 @@ def destroy(*objects) -> None:
 
 
 def build(comm, body: Body, soil, placement=None, ppc=None):
-    """Grid, points and the free-DOF K, M of ``body`` made of ``soil`` (see
+    """Grid, points and the free-DOF K, M of ``body`` made of ``soil`` (a soil.Soil, or a
+    soil.Ground of layers: each point then takes its layer's density and D; see
     :func:`assembly.stiffness_and_mass`); ``placement`` and ``ppc`` replace the body's
     (the plain FE model: 'gauss'). The caller destroys all five."""
+    layered = getattr(soil, "count", 1) > 1
+    if not layered:
+        soil = getattr(soil, "soils", (soil,))[0]
     with ExitStack() as undo:        # a failure destroys what was made before it
         grid = Grid(comm, body.element, body.cells, body.size)
         undo.callback(grid.destroy)
-        points = place(grid, ppc or body.ppc, soil.density, placement or body.placement)
+        points = place(grid, ppc or body.ppc, soil.density_at if layered else soil.density,
+                       placement or body.placement)
         undo.callback(points.destroy)
-        K, M, free = assembly.stiffness_and_mass(grid, points, soil.E, soil.nu,
-                                                 body.supports)
+        # One material keeps its one D: the same K, bit for bit, as before layers.
+        D = soil.elasticity_at if layered else soil.elasticity()
+        K, M, free = assembly.stiffness_and_mass(grid, points, D, body.supports)
         undo.pop_all()
     return grid, points, K, M, free
 

@@ -7,7 +7,12 @@ diffusivities, drag) is worked out here, once, so that the step, the time-step c
 the inertia regime and the references agree by construction. A layered deposit is a
 sequence of these, one per layer; the fluid is the same in every layer.
 
-This module is at the bottom of the package: it imports only :mod:`solver.analytic`.
+A :class:`Ground` is such a sequence: horizontal layers, from the surface down, each a
+:class:`Soil`, with the lookup of the layer at a height that the per-point material of the
+eigen model needs.
+
+This module is at the bottom of the package: it imports only :mod:`solver.analytic` and
+:mod:`solver.errors`.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import analytic
+from .errors import InputError
 
 G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defined
 
@@ -68,6 +74,11 @@ class Soil:
         skeleton and densities; the fluid's options keep their defaults there)."""
         return cls(E=p.E, nu=p.nu, rho_s=p.rho_s, porosity=p.porosity, k=p.k,
                    rho_l=p.rho_l, K_l=p.K_l, mu_l=p.mu_l)
+
+    @property
+    def fluid(self) -> tuple:
+        """The pore fluid's (rho_l, K_l, mu_l)."""
+        return (self.rho_l, self.K_l, self.mu_l)
 
     # -- densities and moduli -------------------------------------------------------------
     @property
@@ -129,3 +140,118 @@ class Soil:
         rho = self.density * S
         return {"c": np.sqrt(E_c / rho), "c1": np.sqrt((E_c + self.K_l / self.porosity) / rho),
                 "c2": self.c2}
+
+
+# The material options that take one value per layer, in Soil's order; the fluid's take one.
+PER_LAYER = ("E", "nu", "rho_s", "porosity", "k")
+FLUID = ("rho_l", "K_l", "mu_l")
+
+
+@dataclass(frozen=True)
+class Ground:
+    """Horizontal layers of soil from the surface down: ``thickness`` (m) and one
+    :class:`Soil` per layer in ``soils``; the column's height is their sum. Checked on
+    construction (ValueError). Heights y are measured up from the base, as the points'."""
+
+    thickness: tuple
+    soils: tuple
+
+    def __post_init__(self):
+        if len(self.thickness) != len(self.soils) or not self.soils:
+            raise ValueError(f"Ground: {len(self.thickness)} thicknesses for "
+                             f"{len(self.soils)} soils")
+        if not all(t > 0 and math.isfinite(t) for t in self.thickness):
+            raise ValueError(f"Ground thickness = {self.thickness!r}: each must be > 0")
+        if len({s.fluid for s in self.soils}) != 1:
+            raise ValueError("Ground: the pore fluid must be the same in every layer")
+
+    @classmethod
+    def uniform(cls, soil: Soil, H: float) -> "Ground":
+        """One layer of ``soil``, H (m) thick."""
+        return cls((float(H),), (soil,))
+
+    @classmethod
+    def from_options(cls, p) -> "Ground":
+        """The layers of the ``-mpm_`` options ``p`` (``-mpm_layers``, the per-layer material
+        options), checked against the body (``-mpm_size``, ``-mpm_cells``): InputError naming
+        the option."""
+        values = {name: getattr(p, name) for name in PER_LAYER + FLUID}
+        return cls.build(tuple(p.layers), values, p.size[1], p.size[1] / p.cells[1])
+
+    @classmethod
+    def build(cls, layers, values: dict, H: float, h_y: float) -> "Ground":
+        """Layers ``layers`` thick (m, from the surface down, as ``-mpm_layers``; empty: one
+        layer H high) of the materials ``values`` ({Soil field: a float for every layer, or
+        a tuple with one per layer}) in a body H (m) high of cells h_y (m) high;
+        InputError naming the option."""
+        thickness = tuple(layers) or (H,)
+        count = len(thickness)
+        for name, value in values.items():
+            if isinstance(value, tuple) and len(value) != count:
+                hint = ("of -mpm_layers; give one value or one per layer" if layers else
+                        "(a list needs -mpm_layers, one thickness per layer)")
+                raise InputError(f"-mpm_{name} {_text(value)}: {len(value)} values for "
+                                 f"{count} layer(s) {hint}")
+        _check_thickness(thickness, H, h_y)
+        soils = tuple(Soil(**{name: v[i] if isinstance(v, tuple) else v
+                              for name, v in values.items()}) for i in range(count))
+        return cls(tuple(float(t) for t in thickness), soils)
+
+    @property
+    def count(self) -> int:
+        return len(self.soils)
+
+    @property
+    def height(self) -> float:
+        """H (m)."""
+        return float(sum(self.thickness))
+
+    @property
+    def bottoms(self) -> np.ndarray:
+        """The height (m) of each layer's base, in the layers' order (from the surface down)."""
+        return self.height - np.cumsum(self.thickness)
+
+    def layer_of(self, y) -> np.ndarray:
+        """The index (from the surface down) of the layer holding each height y (m): the
+        layer whose base is the highest at or below y (the interfaces lie on cell
+        boundaries, where no point lies)."""
+        below = np.asarray(y, dtype=float)[..., None] >= self.bottoms[:-1]
+        return np.argmax(np.concatenate([below, np.ones(below.shape[:-1] + (1,), bool)],
+                                        axis=-1), axis=-1)
+
+    def density_at(self, y) -> np.ndarray:
+        """The saturated density (kg/m3) at heights y (m)."""
+        return np.array([s.density for s in self.soils])[self.layer_of(y)]
+
+    def elasticity_at(self, y) -> np.ndarray:
+        """The skeleton's D (Pa) at heights y (m), (len(y), 3, 3)."""
+        return np.stack([s.elasticity() for s in self.soils])[self.layer_of(y)]
+
+    def per_layer(self, name: str) -> np.ndarray:
+        """A Soil property (a field or a derived one, e.g. ``density``) per layer, from the
+        surface down."""
+        return np.array([getattr(s, name) for s in self.soils], dtype=float)
+
+
+def _text(value) -> str:
+    return ",".join(f"{v:g}" for v in value) if isinstance(value, tuple) else f"{value:g}"
+
+
+def _check_thickness(thickness, H: float, h_y: float) -> None:
+    """InputError unless the layers fill the height H (m), relative 1e-9, each at least a cell
+    (h_y, m) high, their interfaces on cell boundaries."""
+    given = f"-mpm_layers {_text(tuple(thickness))}"
+    total = math.fsum(thickness)
+    if abs(total - H) > 1e-9 * H:
+        raise InputError(f"{given}: the thicknesses sum to {total:g} m, not the body's "
+                         f"height {H:g} m (-mpm_size)")
+    thin = [i for i, t in enumerate(thickness) if t < h_y * (1 - 1e-9)]
+    if thin:
+        raise InputError(f"{given}: layer {thin[0] + 1} ({thickness[thin[0]]:g} m) is thinner "
+                         f"than a cell (h_y = {h_y:g} m, -mpm_cells)")
+    for depth in np.cumsum(thickness)[:-1]:
+        cells = depth / h_y
+        if abs(cells - round(cells)) > 1e-9 * max(cells, 1.0):
+            raise InputError(f"{given}: the interface at depth {depth:g} m is not on a cell "
+                             f"boundary (cells {h_y:g} m high, -mpm_cells); interfaces "
+                             "inside a cell are not supported")

@@ -328,3 +328,10 @@ def test_from_mapping_checks_python_values(values, text):
     with pytest.raises(InputError) as info:
         options.from_mapping(values)
     assert str(info.value) == text
+
+
+def test_readme_option_table_is_the_generated_one():
+    """README's option table is options.table() as it is (regenerate it when SPEC changes)."""
+    from solver import options
+
+    assert options.table() in (REPO / "README.md").read_text()
