@@ -27,13 +27,12 @@ from . import (checkpoint, frequency, inertia, memory, output, provenance, repor
 from .checkpoint import RunState
 from .errors import InputError, Interrupted, NumericalError, agree_code, entry
 from .failure import RunFailure
+from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
 from .scene import Body, Loading
 from .scheme import Scheme
 from .soil import Soil
 from .twophase import TwoPhase, point_fields
-
-MAX_STEPS = 1e8   # steps of a run that finishes (about a day at 1 ms per step)
 
 
 def _validate(p) -> tuple:
@@ -58,6 +57,15 @@ def _validate(p) -> tuple:
                      f"dropped; reporting at T_v = {','.join(f'{t:g}' for t in p.Tv_report)}")
     if p.load == 0 and p.gravity == 0:
         raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
+    geostatic = p.initial_state == "geostatic"
+    if geostatic and p.gravity == 0:
+        raise InputError("-mpm_initial_state geostatic: needs -mpm_gravity > 0 (without "
+                         "gravity the state before the load is at rest already)")
+    if geostatic and p.load == 0:
+        raise InputError("-mpm_load 0: a column at rest under gravity (-mpm_initial_state "
+                         "geostatic) without a load does not consolidate")
+    if not geostatic and not math.isnan(p.K0):
+        raise InputError("-mpm_K0: only with -mpm_initial_state geostatic")
     if p.load != 0 and "y" in p.bc_top:
         # The support would carry the load: nothing would settle, and U_p = 1 would be read
         # as a finished consolidation.
@@ -200,7 +208,7 @@ def _set_up(p, comm, ctx) -> tuple:
     soil, body, loading = Soil.from_options(p), Body.from_options(p), Loading.from_options(p)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report))
     memory.check(body)             # a model that does not fit says so first
-    _check_feasible(p, scheme, soil, body)
+    inertia.check_feasible(p, scheme, soil, body)
     t_wall = time.perf_counter()
     signals.stage("set-up: the body")
     grid, points = scene.two_phase_body(comm, body, soil, point_fields(scheme))
@@ -214,6 +222,8 @@ def _set_up(p, comm, ctx) -> tuple:
     if restart is not None:
         checkpoint.scatter(points, grid, restart[0], restart[1],
                            "x0" if scheme.kinematics == "small" else "x")
+    elif loading.geostatic:
+        scene.geostatic_state(points, body, soil, loading)
     limits, patch = _critical_steps(comm, body, soil, scheme, grid.h, p.stability_analysis,
                                     (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps))
     given = None if math.isnan(p.dt) else p.dt
@@ -304,7 +314,7 @@ def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
             dt_discrete, patch = math.nan, body.cells
         steps = timestep.criteria(soil, body.height, f1, dt_discrete, h, S)
         steps = {k: v for k, v in steps.items() if not math.isnan(v)}
-    return Limits(steps, _governing(steps, scheme.drag), (), f1), patch
+    return Limits(steps, timestep.governing(steps, scheme.drag), (), f1), patch
 
 
 def _choose_dt(limits, given, safety) -> float:
@@ -547,53 +557,3 @@ def _round_down(x: float, digits: int) -> float:
     return math.floor(x / scale) * scale
 
 
-def _governing(limits: dict, drag: str) -> str:
-    """The criterion that sets dt: the smallest, the drag limit only with explicit drag."""
-    return min(timestep.applicable(limits, drag), key=limits.get)
-
-
-def _estimated_steps(soil, body, dt, safety, Tv_end, drag: str, S: float) -> float:
-    """Steps of a run to T_v = ``Tv_end`` from the closed-form criteria alone (a lower
-    bound: the discrete limit and the oscillator criterion can only lower dt); ``dt`` the
-    given step (s) or NaN for ``safety`` times the governing limit."""
-    H = body.height
-    limits = timestep.criteria(soil, H, math.nan, math.nan, body.cell_size(), S)
-    limits = {k: v for k, v in limits.items() if not math.isnan(v)}
-    dt = dt if not math.isnan(dt) else safety * limits[_governing(limits, drag)]
-    return Tv_end * H * H / soil.c_v / dt
-
-
-def _check_feasible(p, scheme, soil, body):
-    """InputError, before anything is analysed or written, when the run would take more
-    than MAX_STEPS steps; it names the options that bring it down, and to how many."""
-    if p.restart:
-        return
-    drag, S = scheme.drag, scheme.mass_scaling
-
-    def steps(drag, S):
-        return _estimated_steps(soil, body, p.dt, p.dt_safety, p.Tv_end, drag, S)
-
-    estimate = steps(drag, S)
-    if estimate <= MAX_STEPS:
-        return
-    if not math.isnan(p.dt):
-        raise InputError(f"-mpm_dt {p.dt:g}: {estimate:.3g} steps to T_v = {p.Tv_end:g}, "
-                         f"more than {MAX_STEPS:.0e}; raise -mpm_dt or lower -mpm_Tv_end")
-    ways = []                                   # (what to change, steps with it)
-    if drag == "explicit":
-        ways.append(("-mpm_drag implicit", steps("implicit", S)))
-    first_tv = min(p.Tv_report)
-    if p.mass_scaling != "auto" and inertia.decay(scheme.damping, scheme.fast_damping)[0] < 1:
-        S_auto = inertia.auto_factor(soil, body.height, first_tv, scheme.damping,
-                                     scheme.fast_damping)
-        ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
-                     + f"-mpm_mass_scaling auto (S = {S_auto:.3g})", steps("implicit", S_auto)))
-    if not any(n <= MAX_STEPS for _, n in ways):
-        # Neither the drag nor the inertia makes this run finish: it is too long.
-        raise InputError(f"-mpm_Tv_end {p.Tv_end:g}: at least {estimate:.3g} steps, more "
-                         f"than {MAX_STEPS:.0e} (" + "".join(f"with {w}: {n:.3g}; "
-                                                             for w, n in ways)
-                         + "shorten the run or coarsen the grid)")
-    raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {estimate:.3g} steps to "
-                     f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
-                     "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))

@@ -44,12 +44,14 @@ import math
 
 import numpy as np
 
+from . import timestep
 from .errors import InputError
 
 TOLERANCE = 0.002   # inertia error that -mpm_mass_scaling auto allows (fraction of q)
 VISIBLE = 0.01      # inertia error that biases a comparison with Terzaghi visibly
 LAG = 2.0           # measured drag-lag error over the bare 1 / (lambda_S t_r)
 PI_MIN = 300.0      # measured: Pi_S below which a residual oscillation exceeds 0.05 % of q
+MAX_STEPS = 1e8     # steps of a run that finishes (about a day at 1 ms per step)
 
 
 def decay(alpha: float, zeta: float) -> tuple:
@@ -145,3 +147,50 @@ def describe(reg: dict) -> str:
             f"{reg['first_report_Tv']:g}, estimated wave error {100 * reg['wave_error']:.2g} %,"
             f" drag lag {100 * reg['drag_lag_error']:.2g} % of q (auto: both <= "
             f"{100 * TOLERANCE:g} % and Pi_S >= {PI_MIN:g})")
+
+
+def estimated_steps(soil, body, dt, safety, Tv_end, drag: str, S: float) -> float:
+    """Steps of a run to T_v = ``Tv_end`` from the closed-form criteria alone (a lower
+    bound: the discrete limit and the oscillator criterion can only lower dt); ``dt`` the
+    given step (s) or NaN for ``safety`` times the governing limit."""
+    H = body.height
+    limits = timestep.criteria(soil, H, math.nan, math.nan, body.cell_size(), S)
+    limits = {k: v for k, v in limits.items() if not math.isnan(v)}
+    dt = dt if not math.isnan(dt) else safety * limits[timestep.governing(limits, drag)]
+    return Tv_end * H * H / soil.c_v / dt
+
+
+def check_feasible(p, scheme, soil, body):
+    """InputError, before anything is analysed or written, when the run would take more
+    than MAX_STEPS steps; it names the options that bring it down, and to how many."""
+    if p.restart:
+        return
+    drag, S = scheme.drag, scheme.mass_scaling
+
+    def steps(drag, S):
+        return estimated_steps(soil, body, p.dt, p.dt_safety, p.Tv_end, drag, S)
+
+    estimate = steps(drag, S)
+    if estimate <= MAX_STEPS:
+        return
+    if not math.isnan(p.dt):
+        raise InputError(f"-mpm_dt {p.dt:g}: {estimate:.3g} steps to T_v = {p.Tv_end:g}, "
+                         f"more than {MAX_STEPS:.0e}; raise -mpm_dt or lower -mpm_Tv_end")
+    ways = []                                   # (what to change, steps with it)
+    if drag == "explicit":
+        ways.append(("-mpm_drag implicit", steps("implicit", S)))
+    first_tv = min(p.Tv_report)
+    if p.mass_scaling != "auto" and decay(scheme.damping, scheme.fast_damping)[0] < 1:
+        S_auto = auto_factor(soil, body.height, first_tv, scheme.damping,
+                                     scheme.fast_damping)
+        ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
+                     + f"-mpm_mass_scaling auto (S = {S_auto:.3g})", steps("implicit", S_auto)))
+    if not any(n <= MAX_STEPS for _, n in ways):
+        # Neither the drag nor the inertia makes this run finish: it is too long.
+        raise InputError(f"-mpm_Tv_end {p.Tv_end:g}: at least {estimate:.3g} steps, more "
+                         f"than {MAX_STEPS:.0e} (" + "".join(f"with {w}: {n:.3g}; "
+                                                             for w, n in ways)
+                         + "shorten the run or coarsen the grid)")
+    raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {estimate:.3g} steps to "
+                     f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
+                     "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))

@@ -141,6 +141,14 @@ SPEC = [
            "9.81 m/s2, per layer", (CONSOLIDATION,), _positive),
     Option("gravity", "float", 0.0, "body force, acting downwards (m/s2)", (CONSOLIDATION,),
            _nonnegative),
+    Option("initial_state", "str", "deposited", "the state before the load, with gravity: "
+           "deposited (a fresh deposit, pore pressure and effective stress 0: it consolidates "
+           "under its own weight) or geostatic (hydrostatic pore pressure and K0 effective "
+           "stress, at rest under gravity: a load drives the excess it drives without "
+           "gravity)", (CONSOLIDATION,), choices=("deposited", "geostatic")),
+    Option("K0", "float", float("nan"), "earth pressure coefficient at rest sigma'_h / "
+           "sigma'_v of the geostatic state (default nu / (1 - nu))", (CONSOLIDATION,),
+           _nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
            (CONSOLIDATION,), _nonnegative),
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",

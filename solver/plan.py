@@ -86,7 +86,7 @@ class References:
             tuple(v / q for v in analytic.undrained_excess(
                 loading.load, H, n, E_c, K_l, soil.rho_s, soil.rho_l, g))
             for K_l in (None, soil.K_l))
-        if g == 0:     # a load alone: the same numbers as the paper's closed forms
+        if not loading.self_weight:     # a load alone: the paper's closed forms
             initial = ((1.0, 1.0), (soil.undrained_ratio,) * 2)
         drained = tuple(s for s in ("top", "bottom") if s in body.drained)
         why_degree = "" if drained else ("no drained side: the mean pore pressure and the "

@@ -15,6 +15,7 @@ Lifetimes: whatever a function here returns belongs to the caller, which destroy
 
 from __future__ import annotations
 
+import math
 from contextlib import ExitStack
 from dataclasses import dataclass
 
@@ -78,15 +79,26 @@ class Body:
 @dataclass(frozen=True)
 class Loading:
     """What drives consolidation: the surface pressure ``load`` q (Pa, downwards) on the
-    top, reached linearly over ``ramp`` (s; 0: a step), and ``gravity`` (m/s2, down)."""
+    top, reached linearly over ``ramp`` (s; 0: a step), and ``gravity`` (m/s2, down).
+    ``geostatic``: the body starts at rest under gravity (hydrostatic pore pressure,
+    effective stress K0 times the vertical one sideways, ``K0`` NaN: nu / (1 - nu)), so
+    that only the load drives consolidation; else it starts unstressed (a fresh deposit)."""
 
     load: float = 10.0e3
     ramp: float = 0.0
     gravity: float = 0.0
+    geostatic: bool = False
+    K0: float = math.nan
 
     @classmethod
     def from_options(cls, p) -> "Loading":
-        return cls(load=p.load, ramp=p.load_ramp, gravity=p.gravity)
+        return cls(load=p.load, ramp=p.load_ramp, gravity=p.gravity,
+                   geostatic=p.initial_state == "geostatic", K0=p.K0)
+
+    @property
+    def self_weight(self) -> bool:
+        """Whether the body's own weight drives consolidation (gravity on a fresh deposit)."""
+        return self.gravity > 0 and not self.geostatic
 
     def scale(self, soil, H: float) -> float:
         """The pressure that normalises p (Pa): the surface load q, or without one the
@@ -96,6 +108,23 @@ class Loading:
     def factor(self, t: float) -> float:
         """The share of q applied at time t (s)."""
         return 1.0 if self.ramp <= 0 else min(1.0, t / self.ramp)
+
+
+def geostatic_state(points, body, soil, loading) -> None:
+    """Set the points' pore pressure p = rho_l g d (Pa) and effective stress (tension
+    positive) sigma'_yy = -gamma' d, sigma'_xx = K0 sigma'_yy, sigma'_xy = 0 at depth
+    d = H - y0 (m), gamma' = (1 - n)(rho_s - rho_l) g the buoyant weight: the state at rest
+    under gravity with the water table at the surface. It is in equilibrium with the step's
+    body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides)."""
+    g, n = loading.gravity, soil.porosity
+    K0 = soil.nu / (1 - soil.nu) if math.isnan(loading.K0) else loading.K0
+    buoyant = (1 - n) * (soil.rho_s - soil.rho_l) * g
+    with points.fields("x0", "p", "stress") as (x0, pp, sig):
+        depth = body.height - x0[:, 1]
+        pp[:] = soil.rho_l * g * depth
+        sig[:, 1] = -buoyant * depth
+        sig[:, 0] = K0 * sig[:, 1]
+        sig[:, 2] = 0.0
 
 
 def destroy(*objects) -> None:

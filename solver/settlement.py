@@ -43,7 +43,7 @@ class Surface:
         E_c = soil.constrained_modulus
         undrained = E_c + soil.K_l / soil.porosity
         q = loading.load
-        if loading.gravity == 0:
+        if not loading.self_weight:     # the load alone (at rest under gravity before)
             self.s0, self.s_inf = q * self.H / undrained, q * self.H / E_c
             self.p0 = analytic.undrained_pressure(q, E_c, soil.K_l, soil.porosity)
             self.s0_classic = 0.0

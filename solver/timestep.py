@@ -323,3 +323,7 @@ def stability_limits(limits: dict, drag: str) -> dict:
     return {k: v for k, v in applicable(limits, drag).items()
             if k in ("undrained", "drag", "discrete")}
 
+
+def governing(limits: dict, drag: str) -> str:
+    """The criterion that sets dt: the smallest, the drag limit only with explicit drag."""
+    return min(applicable(limits, drag), key=limits.get)

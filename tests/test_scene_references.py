@@ -127,3 +127,41 @@ def test_none_goes_alone(cli, tmp_path):
     assert res.stderr.strip().splitlines() == [
         "solver: error: -mpm_drained none,top: none means no drained side; give it alone"]
     assert not (tmp_path / "never").exists()
+
+
+def test_geostatic_start_drives_the_excess_of_the_load_alone(cli, tmp_path):
+    """-mpm_initial_state geostatic: the column starts at rest under gravity (hydrostatic p,
+    K0 effective stress), so the load drives the excess and settlement it drives without
+    gravity: every point's excess within 0.1 % of q and U within 0.001 of the gravity-free
+    run's, Terzaghi's reference, and profiles.csv holding total and excess p."""
+    plain = check_ok(cli(COLUMN, options_file="consolidation-m1-q4", out_dir=tmp_path / "a"))
+    geo = check_ok(cli(COLUMN + ["-mpm_gravity", str(G), "-mpm_initial_state", "geostatic"],
+                       options_file="consolidation-m1-q4", out_dir=tmp_path / "b"))
+    a, b = _profiles(tmp_path / "a"), _profiles(tmp_path / "b")
+    for Tv in REPORTS:
+        assert np.array_equal(a[Tv][0], b[Tv][0])
+        assert np.max(np.abs(a[Tv][1] - b[Tv][1])) < 1e-3, Tv
+    for key in ("U_settlement", "U_pressure"):
+        assert np.allclose(plain["consolidation_degree"][key],
+                           geo["consolidation_degree"][key], rtol=0, atol=1e-3)
+    assert geo["monitor"]["consistent"] == plain["monitor"]["consistent"]
+    o = geo["provenance"]["options"]["mpm"]
+    rows = np.loadtxt(tmp_path / "b" / "profiles.csv", delimiter=",", skiprows=1)
+    hydro = o["rho_l"] * G * (o["size"][1] - rows[:, 3]) / o["load"]
+    assert np.allclose(rows[:, 4] - rows[:, 6], hydro, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["-mpm_initial_state", "geostatic"], "-mpm_initial_state geostatic: needs -mpm_gravity "
+                                          "> 0 (without gravity the state before the load "
+                                          "is at rest already)"),
+    (["-mpm_gravity", "9.81", "-mpm_K0", "0.5"], "-mpm_K0: only with -mpm_initial_state "
+                                                  "geostatic"),
+    (["-mpm_gravity", "9.81", "-mpm_initial_state", "geostatic", "-mpm_load", "0"],
+     "-mpm_load 0: a column at rest under gravity (-mpm_initial_state geostatic) without a "
+     "load does not consolidate")])
+def test_initial_state_bad_input_is_one_line(cli, tmp_path, args, message):
+    res = cli(args, options_file="consolidation-m1-q4", out_dir=tmp_path / "never")
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [f"solver: error: {message}"]
+    assert not (tmp_path / "never").exists()
