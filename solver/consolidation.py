@@ -23,7 +23,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import (checkpoint, frequency, inertia, memory, output, provenance, reporting, scene,
-               settlement, signals, timestep, workprecision)
+               settlement, signals, static, timestep, workprecision)
 from .checkpoint import RunState
 from .errors import InputError, Interrupted, NumericalError, agree_code, entry
 from .failure import RunFailure
@@ -66,6 +66,10 @@ def _validate(p) -> tuple:
                          "geostatic) without a load does not consolidate")
     if not geostatic and not math.isnan(p.K0):
         raise InputError("-mpm_K0: only with -mpm_initial_state geostatic")
+    W = p.size[0]
+    if p.load_extent and not 0 <= p.load_extent[0] < p.load_extent[1] <= W:
+        raise InputError(f"-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}: "
+                         f"outside the top (0 <= x0 < x1 <= {W:g} m)")
     if p.load != 0 and "y" in p.bc_top:
         # The support would carry the load: nothing would settle, and U_p = 1 would be read
         # as a finished consolidation.
@@ -234,6 +238,9 @@ def _set_up(p, comm, ctx) -> tuple:
                        p.allow_unstable)
     signals.stage("set-up: the step counts")
     refs = References.of(soil, loading, body)
+    if not refs.available and not loading.self_weight:
+        signals.stage("set-up: the static references")
+        refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))
     schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
                         p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
                         p.checkpoint_seconds, p.progress)
@@ -510,6 +517,9 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
     summary["consolidation_degree"] = reports.surface.summary(state.degree)
     reporting.print_reports(comm, records, plan.refs)
     settlement.print_degree(comm, state.degree, reports.surface)
+    if plan.refs.static:
+        summary["static_references"] = settlement.print_ends(comm, state.degree,
+                                                             plan.refs.static)
     if plan.goal is not None:
         _target_verdict(plan, summary, pace, comm)
     last = reports.series.last()          # rank 0's: it writes the series

@@ -151,6 +151,9 @@ SPEC = [
            _nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
            (CONSOLIDATION,), _nonnegative),
+    Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
+           "footing on a half model with rollers on its axis x = 0 (default: the whole top)",
+           (CONSOLIDATION,), length=2),
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
            (CONSOLIDATION,), _nonnegative),
     Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable "

@@ -72,6 +72,7 @@ class References:
     hydrostatic: float = 0.0
     why: str = ""
     why_degree: str = ""
+    static: tuple = ()      # (undrained, final) settlement (m) by static solves, or ()
 
     @classmethod
     def of(cls, soil: Soil, loading: Loading, body: Body) -> "References":
@@ -223,6 +224,11 @@ def _no_reference(body: Body, loading: Loading) -> str:
     """Why the scene is not a one-dimensional column with an analytic reference ('' when
     it is one)."""
     bcs = body.supports
+    if loading.partial(body.size[0]):
+        return ("a load over part of the top (-mpm_load_extent "
+                + ",".join(f"{x:g}" for x in loading.extent) + "), the consolidation is "
+                "two-dimensional; the settlement under the load is compared with static "
+                "solutions of its ends")
     if set(body.drained) & {"left", "right"}:
         return ("drained through a side (-mpm_drained " + ",".join(body.drained) + "), the "
                 "consolidation is two-dimensional; solver.biot computes its reference "

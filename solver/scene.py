@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import assembly
+from . import assembly, shapes
 from .grid import Grid
 from .points import place
 
@@ -89,11 +89,17 @@ class Loading:
     gravity: float = 0.0
     geostatic: bool = False
     K0: float = math.nan
+    extent: tuple = ()      # (x0, x1) (m) of the loaded part of the top; (): all of it
 
     @classmethod
     def from_options(cls, p) -> "Loading":
         return cls(load=p.load, ramp=p.load_ramp, gravity=p.gravity,
-                   geostatic=p.initial_state == "geostatic", K0=p.K0)
+                   geostatic=p.initial_state == "geostatic", K0=p.K0,
+                   extent=tuple(p.load_extent))
+
+    def partial(self, width: float) -> bool:
+        """Whether the load covers only part of a top of this width (m)."""
+        return bool(self.extent) and not (self.extent[0] <= 0 and self.extent[1] >= width)
 
     @property
     def self_weight(self) -> bool:
@@ -125,6 +131,30 @@ def geostatic_state(points, body, soil, loading) -> None:
         sig[:, 1] = -buoyant * depth
         sig[:, 0] = K0 * sig[:, 1]
         sig[:, 2] = 0.0
+
+
+def top_forces(grid, loading) -> np.ndarray:
+    """The nodal forces (N per m depth, downwards positive) of the load on the nodes of the
+    top row, (grid.nodes[0],): the integral of the pressure q times each node's 1D shape
+    function over the loaded part of the top edge (3-point Gauss on each cell's loaded
+    part, exact for the element's polynomials)."""
+    s, w = shapes.gauss_1d(3)
+    order, h, cells = grid.order, grid.h[0], grid.cells[0]
+    top = np.zeros(grid.nodes[0])
+    if not loading.partial(grid.size[0]):
+        N = shapes.lagrange1d(order, s)[0]                   # 1D edge shape functions
+        edge = (w[:, None] * N).sum(axis=0) * h / 2          # integral of each over one edge
+        for a in range(order + 1):
+            top[a:a + order * cells:order] += edge[a]
+        return loading.load * top
+    x0, x1 = loading.extent
+    left = np.arange(cells) * h
+    a, b = np.maximum(left, x0), np.minimum(left + h, x1)
+    for c in np.flatnonzero(b > a):          # the loaded cells (set-up: once per run)
+        x = (a[c] + b[c]) / 2 + (b[c] - a[c]) / 2 * s
+        N = shapes.lagrange1d(order, 2 * (x - left[c]) / h - 1)[0]
+        top[order * c:order * c + order + 1] += (w[:, None] * N).sum(axis=0) * (b[c] - a[c]) / 2
+    return loading.load * top
 
 
 def destroy(*objects) -> None:

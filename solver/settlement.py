@@ -39,6 +39,7 @@ class Surface:
         """On ``grid`` with ``ppc`` points per cell per direction, a column of ``soil``
         and height H (m) under ``loading`` (scene.Loading), with the references ``refs``."""
         self.H, self.h, self.refs = H, grid.h[1], refs
+        self.extent = loading.extent if loading.partial(grid.size[0]) else None
         self.order = min(grid.order, ppc - 1)
         E_c = soil.constrained_modulus
         undrained = E_c + soil.K_l / soil.porosity
@@ -84,7 +85,10 @@ class Surface:
         from mpi4py import MPI
 
         x0, V = points.views("x0", "volume")
-        top = np.flatnonzero(x0[:, 1] > self.H - self.h)   # half a row from either side
+        top = x0[:, 1] > self.H - self.h                   # half a row from either side
+        if self.extent is not None:                         # under the load only
+            top &= (x0[:, 0] >= self.extent[0]) & (x0[:, 0] <= self.extent[1])
+        top = np.flatnonzero(top)
         A = np.vander((x0[top, 1] - self.H) / self.h, self.order + 1, increasing=True)
         # The hydrostatic part of the mean pore pressure: rho_l g sum V (H - y0) / sum V.
         sums = np.concatenate([(A.T @ A).ravel(), [float(np.sum(V)),
@@ -178,6 +182,26 @@ def print_degree(comm, degree, surface):
                      f"{r['error_settlement_pct']:8.2f}%{r['consistent']:12.4f}"
                      f"{r['error_settlement_consistent_pct']:8.2f}%")
     PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+def print_ends(comm, degree, ends) -> dict:
+    """The settlement under the load at the first and the last report time against the
+    static solutions of the ends of consolidation ``ends`` = (undrained, final) (m); the
+    summary's entry."""
+    first, last = degree[0], degree[-1]
+    out = {"undrained_m": ends[0], "final_m": ends[1], "Tv_first": first["Tv"],
+           "settlement_first_m": first["settlement_m"], "Tv_last": last["Tv"],
+           "settlement_last_m": last["settlement_m"],
+           "error_undrained_pct": 100 * (first["settlement_m"] / ends[0] - 1),
+           "error_final_pct": 100 * (last["settlement_m"] / ends[1] - 1)}
+    PETSc.Sys.Print(
+        f"Settlement under the load against static solutions (KSP): undrained "
+        f"{1e3 * ends[0]:.5g} mm, final {1e3 * ends[1]:.5g} mm; the run: "
+        f"{1e3 * first['settlement_m']:.5g} mm at T_v = {first['Tv']:g} "
+        f"({out['error_undrained_pct']:+.2f} % of the undrained), "
+        f"{1e3 * last['settlement_m']:.5g} mm at T_v = {last['Tv']:g} "
+        f"({out['error_final_pct']:+.2f} % of the final)", comm=comm)
+    return out
 
 
 def write_files(outputs, surface, rows, refs, Tv_end, cells):

@@ -61,6 +61,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import kernels, shapes
+from .scene import top_forces
 from .scheme import Scheme
 from .errors import NumericalError
 from .kernels import NB, NF, NG
@@ -165,7 +166,7 @@ class TwoPhase:
         assert not self.serial or self.ng == self.nown
         self.fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(body.impermeable).reshape(-1, 2)
-        self.traction = self._traction(loading.load)
+        self.traction = self._traction(loading)
         self._R, self._B = self._reals(), self._node_data()
         # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
         # length selects the kernels' machine code for the cell type.
@@ -201,18 +202,13 @@ class TwoPhase:
         w1 = 2 * np.pi * c1 / (4 * H)
         self.fast_rate, self.slow_rate = 2 * zeta * w1, (w1 if zeta > 0 else 0.0)
 
-    def _traction(self, q):
-        """Owned nodal forces (N per m depth) of a downward pressure q on the top edge."""
+    def _traction(self, loading):
+        """Owned nodal forces (N per m depth) of the downward load on the top edge
+        (:func:`scene.top_forces`)."""
         g = self.grid
-        s, w = shapes.gauss_1d(3)
-        N = shapes.lagrange1d(g.order, s)[0]                  # 1D edge shape functions
-        edge = (w[:, None] * N).sum(axis=0) * g.h[0] / 2    # integral of each over one edge
-        top = np.zeros(g.nodes[0])
-        for a in range(g.order + 1):
-            top[a:a + g.order * g.cells[0]:g.order] += edge[a]
         force = np.zeros(((g.ye - g.ys), (g.xe - g.xs)))
         if g.ye == g.nodes[1]:
-            force[-1] = -q * top[g.xs:g.xe]
+            force[-1] = -top_forces(g, loading)[g.xs:g.xe]
         return force.ravel()
 
     def _integers(self, I):

@@ -166,3 +166,48 @@ def test_initial_state_bad_input_is_one_line(cli, tmp_path, args, message):
     assert res.returncode == 2
     assert res.stderr.strip().splitlines() == [f"solver: error: {message}"]
     assert not (tmp_path / "never").exists()
+
+
+@pytest.mark.parametrize("element, ppc", [("q4", 2), ("q9", 3)])
+def test_static_ends_of_a_column_are_the_closed_forms(element, ppc):
+    """The static solves (KSP) of the ends of consolidation on the paper's column: the
+    undrained settlement q H / (E_c + K_l / n) and the final q H / E_c, to round-off."""
+    from petsc4py import PETSc
+
+    from solver import static
+    from solver.scene import Body, Loading
+    from solver.soil import Soil
+
+    soil, q, H = Soil(), 1e4, 1.0
+    body = Body(element=element, cells=(1, 10), size=(0.1, H), ppc=ppc)
+    undrained, final = static.settlements(PETSc.COMM_WORLD, body, soil, Loading(load=q))
+    E_c = constrained_modulus(soil.E, soil.nu)
+    assert undrained == pytest.approx(q * H / (E_c + soil.K_l / soil.porosity), rel=1e-10)
+    assert final == pytest.approx(q * H / E_c, rel=1e-10)
+
+
+def test_strip_footing_settles_to_its_static_final_settlement(cli, tmp_path):
+    """A strip load on half the width of a 2 m x 1 m block (the axis of symmetry at x = 0,
+    rollers), drained at the top, Q4 8 x 4 cells: no analytic reference (one line, no error
+    columns), and the settlement under the load at T_v = 2 within 1 % of the static final
+    settlement (measured: -0.25 %)."""
+    res = cli(["-mpm_size", "2,1", "-mpm_cells", "8,4", "-mpm_load_extent", "0,0.5",
+               "-mpm_drag", "implicit", "-mpm_mass_scaling", "auto", "-mpm_Tv_end", "2",
+               "-mpm_Tv_report", "0.002,2", "-mpm_progress", "0", "-mpm_figures", "0"],
+              options_file="consolidation-m1-q4", out_dir=tmp_path)
+    s = check_ok(res)
+    assert res.stdout.count("No analytic reference for this scene: a load over part of the "
+                            "top (-mpm_load_extent 0,0.5)") == 1
+    assert "Terzaghi" not in res.stdout and s["reference"]["available"] is False
+    ends = s["static_references"]
+    assert abs(ends["error_final_pct"]) < 1.0
+    assert ends["undrained_m"] < ends["settlement_first_m"] < ends["final_m"]
+
+
+def test_load_extent_outside_the_top_is_one_line(cli, tmp_path):
+    res = cli(["-mpm_load_extent", "0,0.2"], options_file="consolidation-m1-q4",
+              out_dir=tmp_path / "never")
+    assert res.returncode == 2
+    assert res.stderr.strip().splitlines() == [
+        "solver: error: -mpm_load_extent 0,0.2: outside the top (0 <= x0 < x1 <= 0.1 m)"]
+    assert not (tmp_path / "never").exists()

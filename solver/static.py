@@ -1,0 +1,94 @@
+"""The ends of consolidation by static solves: references for scenes without a closed form.
+
+Just after a load is applied, before water moves, the saturated soil responds as one
+undrained body: effective stress D eps plus the pore pressure -(K_l / n) div u, a plane-strain
+stiffness D + (K_l / n) m m^T (m = (1, 1, 0)). When consolidation has ended the excess has
+drained and the skeleton alone, D, carries the load. Both settlements are solved here on
+the same grid, points and supports as the run, by PETSc's KSP (a direct LU of MUMPS by
+default; options prefix ``static_``): an implicit solve apart from the explicit step. The
+settlement is the mean downward displacement of the top under the load, taken at the
+abscissae of the run's own top-row points in the loaded part (the run measures it there).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from . import assembly, shapes
+from .grid import Grid
+from .points import place
+from .scene import top_forces
+
+
+def loaded_points(points, body, loading) -> np.ndarray:
+    """Which of the points are in the top cell row under the load (boolean, local)."""
+    x0 = points.views("x0") if "x0" in points.layout else points.views("x")
+    h = body.size[1] / body.cells[1]
+    inside = x0[:, 1] > body.height - h
+    if loading.partial(body.size[0]):
+        inside &= (x0[:, 0] >= loading.extent[0]) & (x0[:, 0] <= loading.extent[1])
+    return inside
+
+
+def settlements(comm, body, soil, loading) -> tuple:
+    """(undrained, drained) settlement (m, downwards positive) of the top under the load of
+    ``loading`` on ``body`` of ``soil`` (one material), the mean over the abscissae of the
+    run's top-row points under the load (collective; every rank gets both)."""
+    m = np.array([1.0, 1.0, 0.0])
+    D = soil.elasticity()
+    stiffness = {"undrained": D + (soil.K_l / soil.porosity) * np.outer(m, m), "drained": D}
+    out = {}
+    with Grid(comm, body.element, body.cells, body.size) as grid, \
+            place(grid, body.ppc, soil.density, body.placement) as points:
+        inside = loaded_points(points, body, loading)
+        xs = comm.tompi4py().allgather(points.views("x")[inside, 0].copy())
+        xs = np.concatenate(xs)
+        for name, Dk in stiffness.items():
+            top = _top_displacement(grid, points, Dk, body, loading)
+            out[name] = None if top is None else -float(np.mean(_along_top(grid, top, xs)))
+    return tuple(comm.tompi4py().bcast((out["undrained"], out["drained"]), root=0))
+
+
+def _top_displacement(grid, points, D, body, loading):
+    """The vertical displacement (m) of the top row's nodes under the load with the
+    stiffness D (Pa), solved by KSP; on rank 0 (None elsewhere)."""
+    K, M, free = assembly.stiffness_and_mass(grid, points, D, body.supports)
+    M.destroy()
+    f = grid.da.createGlobalVec()
+    rows = f.getArray().reshape(grid.ye - grid.ys, grid.xe - grid.xs, 2)
+    rows[:] = 0.0
+    if grid.ye == grid.nodes[1]:
+        rows[-1, :, 1] = -top_forces(grid, loading)[grid.xs:grid.xe]
+    sub = f.getSubVector(free)
+    rhs = sub.copy()
+    f.restoreSubVector(free, sub)
+    u = K.createVecRight()
+    ksp = PETSc.KSP().create(grid.comm)
+    try:
+        ksp.setOptionsPrefix("static_")
+        ksp.setOperators(K)
+        ksp.setType(PETSc.KSP.Type.PREONLY)
+        ksp.getPC().setType(PETSc.PC.Type.LU)
+        ksp.getPC().setFactorSolverType("mumps")
+        ksp.setFromOptions()
+        ksp.solve(rhs, u)
+        f.set(0.0)
+        f.setValues(free.getIndices(), u.getArray())
+        f.assemble()
+        full = grid.gather_natural(f)
+    finally:
+        for obj in (ksp, u, rhs, f, K, free):
+            obj.destroy()
+    if full is None:
+        return None
+    return full[(grid.nodes[1] - 1) * grid.nodes[0]:, 1]
+
+
+def _along_top(grid, top, xs) -> np.ndarray:
+    """The top row's nodal values ``top`` interpolated at the abscissae xs (m)."""
+    order, h = grid.order, grid.h[0]
+    c = np.minimum((xs / h).astype(int), grid.cells[0] - 1)
+    N = shapes.lagrange1d(order, 2 * (xs - c * h) / h - 1)[0]
+    idx = order * c[:, None] + np.arange(order + 1)
+    return np.sum(N * top[idx], axis=1)
