@@ -52,6 +52,7 @@ class RunState:
     series: list = dataclasses.field(default_factory=list)      # the field series' entries
     settlement: list = dataclasses.field(default_factory=list)  # (t, Tv, s (m), mean p (Pa))
     degree: list = dataclasses.field(default_factory=list)      # degree of consolidation
+    troughs: list = dataclasses.field(default_factory=list)     # (Tv, x (m), s (m)), rank 0
 
     def to_dict(self) -> dict:
         """The state as a checkpoint stores it (JSON after :func:`output._jsonable`)."""
@@ -67,7 +68,7 @@ class RunState:
                    history=[tuple(h) for h in st["history"]], reports=st["reports"],
                    profiles=[(a, b, np.array(c)) for a, b, c in st["profiles"]],
                    series=st["series"], settlement=[tuple(r) for r in st.get("settlement", [])],
-                   degree=st.get("degree", []))
+                   degree=st.get("degree", []), troughs=st.get("troughs", []))
 
 
 

@@ -538,7 +538,7 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
         files.update(reporting.write_files(plan, state.profiles, state.history))
         files.update(settlement.write_files(plan.outputs, reports.surface, state.settlement,
                                             plan.refs, plan.schedule.Tv_end,
-                                            reporting.title(plan)))
+                                            reporting.title(plan), state.troughs))
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(output.results_line(plan.outputs.folder, files), comm=comm)
     PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",

@@ -178,3 +178,27 @@ def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, rati
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="upper right")
     return fig
+
+
+def settlement_trough(plt, troughs, extent, ends, title: str):
+    """The surface settlement (mm, downwards) along x (m) at each report time (``troughs``:
+    (T_v, x, s (m)) rows), the loaded part ``extent`` (x0, x1) shaded, and the static
+    solutions of the undrained and final surface (``ends``: static.Ends, or empty)."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    if extent is not None:
+        ax.axvspan(*extent, color="0.9", label="loaded")
+    colors = tv_colors(plt, len(troughs))
+    for (Tv, x, s), col in zip(troughs, colors):
+        ax.plot(x, 1e3 * np.asarray(s), "o-", ms=3, lw=1.0, color=col, label=f"T_v = {Tv:g}")
+    if ends:
+        ax.plot(ends.x, 1e3 * np.asarray(ends.undrained_top), color="k",
+                label="static, undrained", **COMPRESSIBLE)
+        ax.plot(ends.x, 1e3 * np.asarray(ends.final_top), color="k", label="static, final",
+                **CLASSIC)
+    ax.invert_yaxis()                    # settlement grows downwards, as the ground moves
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("surface settlement (mm, downwards)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig

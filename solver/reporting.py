@@ -71,6 +71,10 @@ class Reporting:
             state.reports.append(report(Tv, t, self.points, self.mpi, plan.refs,
                                         plan.monitor_height, self.heights))
             state.degree.append(self.surface.report(Tv, state.settlement[-1]))
+            if plan.loading.partial(plan.body.size[0]):     # a local load: its trough
+                trough = self.surface.trough(self.points, self.mpi)
+                if trough is not None:
+                    state.troughs.append((Tv, trough[0].tolist(), trough[1].tolist()))
             if comm.getRank() == 0:
                 self.files["settlement_csv"] = self.surface.write_csv(
                     plan.outputs.folder, state.settlement)

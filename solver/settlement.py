@@ -102,6 +102,26 @@ class Surface:
         self._buf = np.empty(n + 1)
         self._generation = points.generation
 
+    def trough(self, points, mpi):
+        """The settlement (m, downwards positive) of the surface along x: for each column
+        of points in the top cell row, the fit in y0 of their vertical displacements taken
+        at y = H (as :meth:`measure`, column by column); (x (m), s (m)) on rank 0, None
+        elsewhere (collective)."""
+        x, x0 = points.views("x", "x0")
+        top = x0[:, 1] > self.H - self.h
+        local = np.column_stack([x0[top], x[top, 1] - x0[top, 1]])
+        parts = mpi.gather(local, root=0)
+        if parts is None:
+            return None
+        every = np.concatenate(parts)
+        xs, col = np.unique(every[:, 0], return_inverse=True)
+        ys, row = np.unique(every[:, 1], return_inverse=True)
+        A = np.vander((ys - self.H) / self.h, min(self.order + 1, len(ys)), increasing=True)
+        weights = np.linalg.pinv(A)[0]          # the fit's value at y = H, per column
+        u = np.zeros((len(xs), len(ys)))
+        u[col, row] = every[:, 2]
+        return xs, -(u @ weights)
+
     def degrees(self, rows):
         """(U from settlement, U from pressure) of history rows (t, Tv, s, mean p); NaN
         where U is undefined (``why``)."""
@@ -204,13 +224,35 @@ def print_ends(comm, degree, ends) -> dict:
     return out
 
 
-def write_files(outputs, surface, rows, refs, Tv_end, cells):
+def write_trough(folder, troughs, ends) -> str:
+    """settlement_trough.csv: the surface settlement along x at each report time
+    (``troughs``: (T_v, x, s) rows) and, where known, the static ends (``ends``:
+    static.Ends, at the top nodes); rank 0."""
+    path = os.path.join(folder, "settlement_trough.csv")
+    with output.atomic(path) as tmp, open(tmp, "w") as fh:
+        fh.write("Tv,x_m,settlement_m_downwards_positive\n")
+        for Tv, x, s in troughs:
+            np.savetxt(fh, np.column_stack([np.full(len(x), Tv), x, s]), delimiter=",")
+        for name, Tv in (("undrained_top", 0.0), ("final_top", np.inf)) if ends else ():
+            np.savetxt(fh, np.column_stack([np.full(len(ends.x), Tv), ends.x,
+                                            getattr(ends, name)]), delimiter=",")
+    return path
+
+
+def write_files(outputs, surface, rows, refs, Tv_end, cells, troughs=()):
     """settlement.csv, the figure of U against T_v and that of the settlement (mm) against
     time in the scene's unit, from the history ``rows`` (t, Tv, s, mean p), into
     ``outputs`` (plan.Outputs); ``refs`` the plan's References, ``Tv_end`` the run's end,
-    ``cells`` the figures' words for the grid ('Q4 1 x 10 cells'); rank 0."""
+    ``cells`` the figures' words for the grid ('Q4 1 x 10 cells'); a local load's
+    ``troughs`` (settlement_trough.csv and its figure); rank 0."""
     ratio, folder, formats = refs.ratio, outputs.folder, outputs.formats
     files = {"settlement_csv": surface.write_csv(folder, rows)}
+    if troughs:
+        files["settlement_trough_csv"] = write_trough(folder, troughs, refs.static)
+        if outputs.figures:
+            fig = figures.settlement_trough(output.pyplot(), troughs, surface.extent,
+                                            refs.static, f"Settlement trough, {cells}")
+            files.update(output.save_figures(fig, folder, "settlement_trough", formats))
     if not (outputs.figures and surface.valid):     # no U: no reference to draw against
         return files
     name = "Terzaghi" if refs.terzaghi else "Reference"

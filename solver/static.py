@@ -12,6 +12,8 @@ abscissae of the run's own top-row points in the loaded part (the run measures i
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from petsc4py import PETSc
 
@@ -31,10 +33,21 @@ def loaded_points(points, body, loading) -> np.ndarray:
     return inside
 
 
-def settlements(comm, body, soil, loading) -> tuple:
-    """(undrained, drained) settlement (m, downwards positive) of the top under the load of
-    ``loading`` on ``body`` of ``soil`` (one material), the mean over the abscissae of the
-    run's top-row points under the load (collective; every rank gets both)."""
+class Ends(NamedTuple):
+    """The ends of consolidation: the mean settlement (m, downwards positive) under the
+    load undrained and final, and the whole surface's: the top nodes' x (m) and their
+    settlements (m) undrained and final."""
+    undrained: float
+    final: float
+    x: tuple
+    undrained_top: tuple
+    final_top: tuple
+
+
+def settlements(comm, body, soil, loading) -> Ends:
+    """The :class:`Ends` of the load of ``loading`` on ``body`` of ``soil`` (one
+    material): the mean settlements over the abscissae of the run's top-row points under
+    the load (collective; every rank gets them)."""
     m = np.array([1.0, 1.0, 0.0])
     D = soil.elasticity()
     stiffness = {"undrained": D + (soil.K_l / soil.porosity) * np.outer(m, m), "drained": D}
@@ -44,10 +57,13 @@ def settlements(comm, body, soil, loading) -> tuple:
         inside = loaded_points(points, body, loading)
         xs = comm.tompi4py().allgather(points.views("x")[inside, 0].copy())
         xs = np.concatenate(xs)
+        nodes = np.linspace(0.0, body.size[0], grid.nodes[0])
         for name, Dk in stiffness.items():
             top = _top_displacement(grid, points, Dk, body, loading)
-            out[name] = None if top is None else -float(np.mean(_along_top(grid, top, xs)))
-    return tuple(comm.tompi4py().bcast((out["undrained"], out["drained"]), root=0))
+            out[name] = None if top is None else (
+                -float(np.mean(_along_top(grid, top, xs))), tuple(-top))
+    u, d = comm.tompi4py().bcast((out["undrained"], out["drained"]), root=0)
+    return Ends(u[0], d[0], tuple(nodes), u[1], d[1])
 
 
 def _top_displacement(grid, points, D, body, loading):
