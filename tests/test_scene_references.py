@@ -218,3 +218,29 @@ def test_load_extent_outside_the_top_is_one_line(cli, tmp_path):
     assert res.stderr.strip().splitlines() == [
         "solver: error: -mpm_load_extent 0,0.2: outside the top (0 <= x0 < x1 <= 0.1 m)"]
     assert not (tmp_path / "never").exists()
+
+
+@pytest.mark.parametrize("args", [
+    ["-mpm_load", "0", "-mpm_gravity", str(G), "-mpm_cells", "1,20"],
+    ["-mpm_gravity", str(G), "-mpm_initial_state", "geostatic", "-mpm_cells", "1,20"],
+    ["-mpm_size", "2,1", "-mpm_cells", "8,4", "-mpm_load_extent", "0,0.5", "-mpm_drag",
+     "implicit", "-mpm_mass_scaling", "auto"]], ids=["self-weight", "geostatic", "strip"])
+def test_new_scenes_agree_on_one_and_two_ranks(cli, tmp_path, args):
+    """The new scenes' reports, profiles and static ends on 1 and 2 ranks (as python -m
+    solver under mpirun): equal to 1e-10 of q (the last digits differ: sums in another
+    order)."""
+    short = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.01,0.05", "-mpm_progress", "0",
+             "-mpm_figures", "0"]
+    runs = [check_ok(cli(args + short, ranks=n, options_file="consolidation-m1-q4",
+                         out_dir=tmp_path / str(n), process=True)) for n in (1, 2)]
+    assert runs[1]["ranks"] == 2
+    assert np.allclose(runs[0]["monitor"]["p_over_q"], runs[1]["monitor"]["p_over_q"],
+                       rtol=0, atol=1e-10)
+    one, two = (np.loadtxt(tmp_path / str(n) / "profiles.csv", delimiter=",", skiprows=1)
+                for n in (1, 2))
+    order = [np.lexsort((r[:, 2], r[:, 3], r[:, 0])) for r in (one, two)]
+    assert np.allclose(one[order[0]], two[order[1]], rtol=0, atol=1e-10)
+    if "static_references" in runs[0]:
+        for key in ("undrained_m", "final_m", "settlement_last_m"):
+            assert runs[1]["static_references"][key] == pytest.approx(
+                runs[0]["static_references"][key], rel=1e-10)
