@@ -75,22 +75,39 @@ def drawn(n: int, most: int = MAX_DRAWN) -> slice:
     return slice(None, None, max(1, -(-n // most)))
 
 
-def pressure_field(plt, snapshots, q: float, title: str, width: float = None):
+def pressure_field(plt, snapshots, q: float, title: str, width: float = None,
+                   height: float = None):
     """A figure of the pore-pressure field, one panel per snapshot (T_v, x (m), height (m),
-    p (Pa)) of the points, on one colour scale from 0 to the load ``q`` (Pa), in kPa."""
+    p (Pa)) of the points, on one colour scale from 0 to the load ``q`` (Pa), in kPa: side
+    by side for a column, one above the other for a body wider than high (``width``,
+    ``height`` in m)."""
     n = len(snapshots)
-    fig, axes = plt.subplots(1, n, figsize=(2.2 * n + 1.6, 6), squeeze=False, sharey=True)
+    wide = bool(width and height and width > height)
+    if wide:
+        fig, axes = plt.subplots(n, 1, figsize=(8, 1.0 + n * 5.5 * height / width),
+                                 squeeze=False, sharex=True)
+        axes = axes.T
+    else:
+        fig, axes = plt.subplots(1, n, figsize=(2.2 * n + 1.6, 6), squeeze=False,
+                                 sharey=True)
     for ax, (Tv, x, y, pp) in zip(axes[0], snapshots):
         k = drawn(len(x))
         sc = ax.scatter(np.asarray(x)[k], np.asarray(y)[k], c=np.asarray(pp)[k] / 1e3, s=12,
                         cmap=PRESSURE_CMAP, vmin=0, vmax=q / 1e3)
         ax.set_title(f"T_v = {Tv:g}", fontsize=9)
         ax.set_aspect("equal")
+        if wide:
+            ax.set_ylabel("y (m)")
+            ax.set_xlim(0, width)
+            continue
         ax.set_xlabel("x (m)")
         if width:
             ax.set_xticks([0, width])
             ax.set_xlim(0, width)
-    axes[0, 0].set_ylabel("height above the base (m)")
+    if wide:
+        axes[0, -1].set_xlabel("x (m)")
+    else:
+        axes[0, 0].set_ylabel("height above the base (m)")
     fig.colorbar(sc, ax=list(axes[0]), label="excess pore pressure (kPa)")
     fig.suptitle(title)
     return fig

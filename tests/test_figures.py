@@ -119,3 +119,22 @@ def test_settlement_time_in_the_scenes_own_unit(t_end, unit, seconds):
     want = 1e3 * s_inf * np.array([1 - terzaghi_mean(T_i) for T_i in T[::40]])
     np.testing.assert_allclose(classic.get_ydata()[::40], want, atol=1e-9)
     output.pyplot().close(fig)
+
+
+def test_pressure_field_of_a_wide_body_stacks_its_panels():
+    """A body wider than high (a strip footing's block) gets its snapshots one above the
+    other, each panel as wide as the figure; a column keeps them side by side."""
+    from solver import figures, output
+
+    plt = output.pyplot()
+    x, y = np.meshgrid(np.linspace(0.05, 1.95, 20), np.linspace(0.05, 0.95, 10))
+    snaps = [(Tv, x.ravel(), y.ravel(), np.full(x.size, 5e3)) for Tv in (0.01, 0.1, 0.5)]
+    wide = figures.pressure_field(plt, snaps, 1e4, "t", width=2.0, height=1.0)
+    tall = figures.pressure_field(plt, snaps, 1e4, "t", width=0.1, height=1.0)
+    boxes = [[ax.get_position() for ax in f.axes if ax.get_label() != "<colorbar>"][:3]
+             for f in (wide, tall)]
+    assert all(abs(b.x0 - boxes[0][0].x0) < 1e-9 for b in boxes[0])      # one column
+    assert boxes[0][0].y0 > boxes[0][1].y0 > boxes[0][2].y0               # top to bottom
+    assert all(abs(b.y0 - boxes[1][0].y0) < 1e-9 for b in boxes[1])      # one row
+    for f in (wide, tall):
+        plt.close(f)
