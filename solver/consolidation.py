@@ -31,7 +31,7 @@ from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
 from .scene import Body, Loading
 from .scheme import Scheme
-from .soil import Soil
+from .soil import Ground
 from .twophase import TwoPhase, point_fields
 
 
@@ -83,11 +83,7 @@ def _validate(p) -> tuple:
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
-    from .soil import Ground      # checks -mpm_layers and the per-layer values
-
-    if Ground.from_options(p).count > 1:
-        raise InputError(f"-mpm_layers {','.join(f'{t:g}' for t in p.layers)}: layered "
-                         "consolidation is not supported yet (the eigen analysis takes layers)")
+    Ground.from_options(p)        # checks -mpm_layers and the per-layer values
     return p, notes
 
 
@@ -209,13 +205,16 @@ def _set_up(p, comm, ctx) -> tuple:
     options = provenance.options(p)
     ctx.begin(summary_path, run_id, options)
     signals.stage("set-up: the time scheme and mass scaling")
-    soil, body, loading = Soil.from_options(p), Body.from_options(p), Loading.from_options(p)
+    ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
+    # One layer: its Soil, as before layers; several: the Ground (per-point material).
+    soil = ground if ground.count > 1 else ground.soils[0]
     scheme = Scheme.from_options(p, soil, min(p.Tv_report))
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)
     t_wall = time.perf_counter()
     signals.stage("set-up: the body")
-    grid, points = scene.two_phase_body(comm, body, soil, point_fields(scheme))
+    grid, points = scene.two_phase_body(comm, body, soil,
+                                        point_fields(scheme, ground.count > 1))
     ctx.owned += [grid, points]
     if restart is not None:
         state = RunState.from_dict(restart[2], scheme.mass_scaling)
@@ -413,6 +412,7 @@ def _summary(plan, points, state, comm) -> dict:
                "fast_damping": scheme.fast_damping, "flip": scheme.flip, "f1_hz": limits.f1,
                "c_v": refs.c_v, "c2": refs.c2, "p0_consistent_over_q": refs.p0,
                "regime": limits.regime, "reference": refs.summary(),
+               **_layers(plan.soil),
                "scene": plan.scene, "run_id": plan.run["id"],
                "provenance": provenance.collect(comm, plan.provenance)}
     if limits.warning:
@@ -420,6 +420,15 @@ def _summary(plan, points, state, comm) -> dict:
     if plan.goal is not None:
         summary["target"] = plan.goal
     return summary
+
+
+def _layers(soil) -> dict:
+    """The summary's layers (thickness in m and the soil of each, from the surface down),
+    for layered ground; nothing for one soil."""
+    if len(soil.soils) == 1:
+        return {}
+    return {"layers": [{"thickness_m": t, **dataclasses.asdict(s)}
+                       for t, s in zip(soil.thickness, soil.soils)]}
 
 
 def _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall):

@@ -13,7 +13,8 @@ from . import output
 class PointSeries:
     """Point fields as an XDMF + HDF5 time series (:class:`output.XdmfSeries`, written by
     rank 0): positions, displacement x - x0, both velocities (m, m/s; 3-vectors, z = 0),
-    pore pressure and the effective stress components (Pa, tension positive). Points are
+    pore pressure and the effective stress components (Pa, tension positive), and in layered
+    ground each point's layer (0 at the surface). Points are
     in the order of their global numbers, so a point keeps its index from step to step
     whatever rank holds it (ParaView's selections and plots over time follow it). The index
     and every HDF5 file carry ``run_id``."""
@@ -95,6 +96,8 @@ class PointSeries:
             "effective_stress_xx": lambda: gathered("stress", lambda s: s[:, 0].copy()),
             "effective_stress_yy": lambda: gathered("stress", lambda s: s[:, 1].copy()),
             "effective_stress_xy": lambda: gathered("stress", lambda s: s[:, 2].copy())}
+        if "layer" in points.layout:            # layered ground: the point's layer, 0 on top
+            fields["layer"] = lambda: gathered("layer")
         if self.writer is None:
             for field in fields.values():     # the gathers are collective
                 field()

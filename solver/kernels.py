@@ -54,12 +54,12 @@ NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2)
 NB = 5        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied)
 
 # C: point count and point-field addresses ...
-(PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW) = range(11)
+(PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW, PLAYER) = range(12)
 # ... float64 arrays, each an (address, length) pair: the reals; the static node data; the
 # nodal sums of the ghosted-local and of the owned nodes; the results (accelerations and
 # velocities) of the owned and of the ghosted-local nodes; the projected pressure
 # increments of the ghosted-local and of the owned nodes (one rank: local = owned) ...
-AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(11, 27, 2)
+AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(12, 28, 2)
 # ... and the scheme's integers.
 (INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
  IBLEND,    # 1: the liquid in the blended basis N_hat
@@ -69,8 +69,9 @@ AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(11, 27, 2)
  ICMX, ICMY,    # largest cell index per direction (cells - 1)
  ISTX, ISTY,    # ghosted-local node offset of one cell step in x and in y
  INOWN,         # owned nodes (the nodal update's range)
- ) = range(27, 37)
-NC = 37
+ ILAYERS,       # layers of the per-point material table (0: one material, the R* slots)
+ ) = range(28, 39)
+NC = 39
 
 # R: reals (SI units).
 (RHX, RHY,     # cell size (m)
@@ -86,6 +87,16 @@ NC = 37
 RD = 16                   # the plane-strain elasticity matrix D (Pa), 3 x 3 row-major
 RBOX = RD + 9             # migration box per direction: partitioned (1/0), h, lo, hi
 NR = RBOX + 8
+# Layered material: after the NR reals, one row of NL per layer, indexed by the point's
+# ``layer`` field. Masses and drag then enter the nodes as three more nodal sums (the last
+# three fields: sum w V c_s, sum w_l V c_l, sum w_l V c_q), since their ratio to S varies
+# from node to node; the liquid's M~_l = rho_l S_l keeps its one coefficient (one fluid).
+(LCS, LCL, LCQ,   # M_s, M_l per unit volume (kg/m3), Q per unit volume (kg/m3/s)
+ LGM,             # the mixture's weight per volume, y (N/m3, with the sign of g_y)
+ LN,              # porosity
+ ) = range(5)
+LD = 5            # the layer's D (Pa), 3 x 3 row-major
+NL = LD + 9
 
 
 # -- point fields ---------------------------------------------------------------------------
@@ -262,10 +273,12 @@ def _blended(off, R, xi, eta, S):
 def points_to_grid(off, C, hrz, blend):
     """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
-    + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), and
-    w_l V (blended basis)."""
-    n, nf = C[PN], C[INF]
+    + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), w_l V
+    (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the layer's)."""
+    n, nf, layered = C[PN], C[INF], C[ILAYERS] > 0
     R, G = _array(C, AR), _array(C, AGL)
+    layer, im = _points1(C, PLAYER), nf - 3
+    mcs = mcl = mcq = 0.0
     G[:] = 0.0
     Gn = G.reshape((G.shape[0] // nf, nf))      # by node (one index check per node)
     xr, V = _points(C, PXREF, 2), _points1(C, PV)
@@ -298,7 +311,11 @@ def points_to_grid(off, C, hrz, blend):
         t01 = -(sig[k, 2] * Vk)
         msx, msy, mlx, mly = vs[k, 0] * Vk, vs[k, 1] * Vk, vl[k, 0] * Vk, vl[k, 1] * Vk
         pV, gmV, glV = p * Vk, Vk * gm, Vk * gl
-        if hrz is None and blend is None:
+        if layered:
+            r = NR + NL * int(layer[k])
+            gmV = Vk * R[r + LGM]
+            mcs, mcl, mcq = Vk * R[r + LCS], Vk * R[r + LCL], Vk * R[r + LCQ]
+        elif hrz is None and blend is None:
             # w = w_l = N_l = N: three rows of coefficients, a few vector operations.
             K[SN, 0], K[SN, 1], K[SN, 2], K[SN, 3], K[SN, 4] = Vk, msx, msy, mlx, mly
             K[SX, 5], K[SY, 5] = t00, t01
@@ -324,6 +341,10 @@ def points_to_grid(off, C, hrz, blend):
             g[8] += S[rly, a] * pV + Nl * glV
             if blend is not None:
                 g[9] += Nl * Vk
+            if layered:
+                g[im] += w * mcs
+                g[im + 1] += wl * mcl
+                g[im + 2] += wl * mcq
 
 
 # -- nodal update ---------------------------------------------------------------------------
@@ -340,7 +361,13 @@ def _implicit_node(S, Sl, R, dt):
     M~_l, Q, 1 / (M_s + M_l) and 1 / (M~_l M_s / (M_s + M_l) + Q dt) (0 where a mass or
     the denominator is not positive: that phase is then held), so that the directions
     need no division of their own."""
-    Ms, Ml, Mt, Q = R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl
+    return _implicit_masses(R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl, dt)
+
+
+@_jit
+def _implicit_masses(Ms, Ml, Mt, Q, dt):
+    """_implicit_node's coefficients from the node's masses M_s, M_l, M~_l (kg per m) and
+    drag Q (kg/s per m)."""
     Mm = Ms + Ml
     if not Mm > 0.0:
         return Ms, Ml, Mt, Q, 0.0, 0.0
@@ -377,9 +404,12 @@ def nodal_update(C, dt, load_factor, damping):
     (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
     A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
     same a and v, zero relative flux), fixed where the solid's is."""
-    nf, blend, implicit = C[INF], C[IBLEND], C[IIMPL]
+    nf, blend, implicit, layered = C[INF], C[IBLEND], C[IIMPL], C[ILAYERS] > 0
     R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
+    if layered:
+        _nodal_update_layered(C, dt, load_factor, damping)
+        return
     for k in range(C[INOWN]):
         g, o, b = k * nf, k * NG, k * NB
         S = G[g]
@@ -421,6 +451,51 @@ def nodal_update(C, dt, load_factor, damping):
             O[o + 6 + d] = (a_l * dt + vln) * free_l
 
 
+@_jit
+def _nodal_update_layered(C, dt, load_factor, damping):
+    """nodal_update with the masses and drag of layered material: summed per node (the
+    last three nodal sums), so that a node on an interface has the mass of both layers'
+    points around it; the same equations."""
+    nf, blend, implicit = C[INF], C[IBLEND], C[IIMPL]
+    R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
+    ct, im = R[RCT], nf - 3
+    for k in range(C[INOWN]):
+        g, o, b = k * nf, k * NG, k * NB
+        S = G[g]
+        invS = 1.0 / S if S > 0.0 else 0.0
+        Sl, invSl = S, invS
+        if blend:
+            Sl = G[g + 9]
+            invSl = 1.0 / Sl if Sl > 0.0 else 0.0
+        Ms, Ml, Q, Mt = G[g + im], G[g + im + 1], G[g + im + 2], ct * Sl
+        invMs = 1.0 / Ms if Ms > 0.0 else 0.0
+        invMt = 1.0 / Mt if Mt > 0.0 else 0.0
+        if implicit:
+            coef = _implicit_masses(Ms, Ml, Mt, Q, dt)
+        for d in range(2):
+            vsn, vln = G[g + 1 + d] * invS, G[g + 3 + d] * invSl
+            fm, fl = G[g + 5 + d], G[g + 7 + d]
+            if d == 1:
+                fm += load_factor * B[b]
+            if damping != 0.0:
+                fm -= abs(fm) * _sign(Ms * vsn + Ml * vln) * damping
+            free_s, free_l = B[b + 1 + d], B[b + 3 + d]
+            if free_l == 0.0:
+                Mm = Ms + Ml
+                a_s = fm / Mm if Mm > 0.0 else 0.0
+                a_l, vln, free_l = a_s, vsn, free_s
+            elif implicit:
+                a_s, a_l = _implicit(coef, fm, fl, vsn, vln, free_s == 0.0 or S <= 0.0,
+                                     Sl <= 0.0, dt)
+            else:
+                a_l = (fl - (vln - vsn) * Q) * invMt
+                a_s = (fm - a_l * Ml) * invMs
+            O[o + d] = a_s * free_s
+            O[o + 2 + d] = a_l * free_l
+            O[o + 4 + d] = (a_s * dt + vsn) * free_s
+            O[o + 6 + d] = (a_l * dt + vln) * free_l
+
+
 # -- grid to points -------------------------------------------------------------------------
 @_jit
 def grid_to_points(off, C, hrz, blend, dt, flip):
@@ -432,6 +507,7 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     x, xr, V, vs, vl, sig, pp, J, visc, vslow = _g2p_fields(C)
     blended = blend is not None
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
+    layered, layer = C[ILAYERS] > 0, _points1(C, PLAYER)
     pic = flip != 1.0
     On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
     if project:
@@ -444,6 +520,8 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))
     nr = 3 if blend is None else NS
     for k in range(n):
+        if layered:
+            D, n_, cdiv, kdp, fs, fl = _layer_constants(R, int(layer[k]), blended, dt)
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None and project:
             _hrz_weights(off, S)                  # the projection's weights only
@@ -521,6 +599,17 @@ def _g2p_constants(R, blended, dt):
     cdiv = 1.0 if blended else 1.0 - n_    # div v_s + n div(v_l - v_s), or (1 - n) div v_s
     fs, fl = R[RCS] / (R[RCS] + R[RCL]), R[RCL] / (R[RCS] + R[RCL])
     return R[RD:RD + 9], n_, cdiv, dt * R[RKL] / n_, R[RETA], R[RFAST], R[RSLOW], fs, fl
+
+
+@_jit
+def _layer_constants(R, layer, blended, dt):
+    """_g2p_constants' material part for a point of ``layer``: D (Pa), n, the divergence
+    weight, dt K_l / n (Pa) and the phases' mass fractions."""
+    r = NR + NL * layer
+    n_ = R[r + LN]
+    cdiv = 1.0 if blended else 1.0 - n_
+    cs, cl = R[r + LCS], R[r + LCL]
+    return R[r + LD:r + LD + 9], n_, cdiv, dt * R[RKL] / n_, cs / (cs + cl), cl / (cs + cl)
 
 
 @_jit

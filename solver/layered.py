@@ -197,7 +197,7 @@ class LayeredColumn:
         self.scale = float(np.abs(np.r_[self.alpha, self.alpha + self.beta * md.d]).max())
         ratio = np.maximum(md.Z[1:] / md.Z[:-1], md.Z[:-1] / md.Z[1:])
         self._bound = math.sqrt(norm2) * float(np.prod(ratio))
-        self._c = self._settle = np.zeros(0)
+        self._c = self._settle = self._mean = np.zeros(0)
 
     def _integral(self, weight):
         """int weight u0 dy (weight per layer, from the base up)."""
@@ -247,6 +247,7 @@ class LayeredColumn:
         self.w, self.start, self.amp = w, start, amp
         self._c = proj / norm
         self._settle = (amp * md.d * np.sin(mid) * sinc / self.E_c).sum(axis=1)
+        self._mean = (amp * md.d * np.sin(mid) * sinc).sum(axis=1) / md.H
 
     def _at(self, t: float):
         """(w, c_j exp(-w^2 t)) of the modes time t needs."""
@@ -300,6 +301,19 @@ class LayeredColumn:
                 continue
             w, e = self._at(float(ti))
             out[i] = self.s_eff - float(e @ self._settle[:w.size])
+        return out.reshape(times.shape)[()]
+
+    def mean_excess(self, t) -> np.ndarray:
+        """The mean excess pore pressure over the height (Pa) at times ``t`` (s); the
+        undrained one at t <= 0."""
+        times = np.asarray(t, dtype=float)
+        out = np.empty(times.size)
+        for i, ti in enumerate(times.reshape(-1)):
+            if ti <= 0:
+                out[i] = self._integral(1.0) / self.modes.H
+                continue
+            w, e = self._at(float(ti))
+            out[i] = float(e @ self._mean[:w.size])
         return out.reshape(times.shape)[()]
 
     def degree(self, t) -> np.ndarray:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import analytic
+from . import analytic, layered
 from .scene import Body, Loading
 from .scheme import Scheme
 from .soil import Soil
@@ -73,13 +73,17 @@ class References:
     why: str = ""
     why_degree: str = ""
     static: tuple = ()      # (undrained, final) settlement (m) by static solves, or ()
+    layered: tuple = ()     # a layered column's references (classic, consistent), or ()
 
     @classmethod
     def of(cls, soil: Soil, loading: Loading, body: Body) -> "References":
-        """The references of ``body`` of ``soil`` under ``loading``."""
+        """The references of ``body`` of ``soil`` (a soil.Soil, or a soil.Ground of
+        layers) under ``loading``."""
         H, q = body.height, loading.scale(soil, body.height)
-        scales = (soil.c_v, soil.c2, soil.undrained_ratio, q, H)
         why = _no_reference(body, loading)
+        if len(soil.soils) > 1:
+            return cls._of_layers(soil, loading, body, q, why)
+        scales = (soil.c_v, soil.c2, soil.undrained_ratio, q, H)
         if why:
             return cls(*scales, drained=(), why=why, why_degree=why)
         g, E_c, n = loading.gravity, soil.constrained_modulus, soil.porosity
@@ -95,6 +99,30 @@ class References:
         return cls(*scales, drained=drained, initial=initial,
                    hydrostatic=soil.rho_l * g, why_degree=why_degree)
 
+    @classmethod
+    def _of_layers(cls, ground, loading: Loading, body: Body, q: float, why: str):
+        """A layered column's references: the mode solutions of :class:`layered.
+        LayeredColumn` with incompressible and compressible water; T_v with the ground's
+        equivalent c_v (soil.Ground.c_v)."""
+        H, g = body.height, loading.gravity
+        drained = tuple(s for s in ("top", "bottom") if s in body.drained)
+        columns = () if why else tuple(
+            layered.LayeredColumn(
+                ground.thickness, ground.per_layer("constrained_modulus"),
+                ground.per_layer("k"), ground.per_layer("porosity"),
+                ground.soils[0].unit_weight_water, K_l, q=loading.load, drained=drained,
+                rho_s=ground.per_layer("rho_s"), rho_l=ground.rho_l,
+                g=g if loading.self_weight else 0.0)
+            for K_l in (None, ground.K_l))
+        p0 = float(columns[1].mean_excess(0.0)) / q if columns else math.nan
+        initial = tuple(tuple(float(v) / q for v in c.initial(np.array([H, 0.0])))
+                        for c in columns) or ((1.0, 1.0), (1.0, 1.0))
+        why_degree = why or ("" if drained else "no drained side: the mean pore pressure "
+                             "and the settlement do not change, U is undefined")
+        return cls(ground.c_v, ground.c2, p0, q, H, drained=drained if not why else (),
+                   initial=initial, hydrostatic=ground.rho_l * g if not why else 0.0,
+                   why=why, why_degree=why_degree, layered=columns)
+
     @property
     def available(self) -> bool:
         return not self.why
@@ -103,12 +131,20 @@ class References:
     def terzaghi(self) -> bool:
         """Whether the reference is Terzaghi's (drained at the top, a uniform initial
         excess): the paper's comparison, by its closed forms."""
-        return self.drained == ("top",) and all(a == b for a, b in self.initial)
+        return (self.drained == ("top",) and all(a == b for a, b in self.initial)
+                and not self.layered)
 
     def describe(self) -> str:
         """The reference in words, for the run's banner."""
         if not self.available:
             return f"No analytic reference for this scene: {self.why}"
+        if self.layered:
+            ends = {("top",): "at the top", ("bottom",): "at the base",
+                    ("top", "bottom"): "at the top and the base", (): "nowhere"}[self.drained]
+            return (f"Reference: the layered column drained {ends} ({len(self.layered[0].B)} "
+                    "layers; a series of its exact modes, summed to 1e-10 of the initial "
+                    "excess: solver.layered), classic and with compressible water; T_v with "
+                    "the layers' equivalent c_v")
         if self.terzaghi:
             return ("Reference: Terzaghi's one-way consolidation (drained at the top), "
                     "classic and with compressible water")
@@ -131,6 +167,9 @@ class References:
     def pressure(self, y, Tv, form: str):
         """The reference excess pore pressure p / q at heights y (m) and time factor Tv
         in ``form`` (classic or consistent)."""
+        if self.layered:
+            column = self.layered[FORMS.index(form)]
+            return column.pressure(y, self.time(np.asarray(Tv, dtype=float))) / self.q
         top, base = self.initial[FORMS.index(form)]
         T = Tv * self.c2 / self.c_v if form == "consistent" else Tv
         if self.terzaghi:
@@ -139,11 +178,24 @@ class References:
 
     def degree(self, Tv, form: str):
         """The reference degree of consolidation U at time factors Tv in ``form``."""
+        if self.layered:
+            return self.layered[FORMS.index(form)].degree(self.time(np.asarray(Tv,
+                                                                              dtype=float)))
         T = Tv * self.ratio if form == "consistent" else Tv
         if self.terzaghi:
             return analytic.degree_of_consolidation(T)
         top, base = self.initial[FORMS.index(form)]
         return analytic.column_degree(T, self.drained, top, base)
+
+    def degree_pressure(self, Tv, form: str):
+        """The reference U from the mean excess pore pressure, 1 - mean u / mean u0, at time
+        factors Tv in ``form``: U itself in a uniform column (m_v the same everywhere),
+        another curve in layers (the layers' m_v weigh the settlement, not the mean)."""
+        if not self.layered:
+            return self.degree(Tv, form)
+        column = self.layered[FORMS.index(form)]
+        t = self.time(np.asarray(Tv, dtype=float))
+        return 1 - column.mean_excess(t) / column.mean_excess(0.0)
 
     def excess(self, p, y):
         """The excess over hydrostatic (Pa) of pore pressures p (Pa) at heights y (m)."""

@@ -119,17 +119,27 @@ class Loading:
 def geostatic_state(points, body, soil, loading) -> None:
     """Set the points' pore pressure p = rho_l g d (Pa) and effective stress (tension
     positive) sigma'_yy = -gamma' d, sigma'_xx = K0 sigma'_yy, sigma'_xy = 0 at depth
-    d = H - y0 (m), gamma' = (1 - n)(rho_s - rho_l) g the buoyant weight: the state at rest
+    d = H - y0 (m), gamma' = (1 - n)(rho_s - rho_l) g the buoyant weight (in layered
+    ground, sigma'_yy the buoyant weight above, K0 each layer's): the state at rest
     under gravity with the water table at the surface. It is in equilibrium with the step's
     body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides)."""
-    g, n = loading.gravity, soil.porosity
-    K0 = soil.nu / (1 - soil.nu) if math.isnan(loading.K0) else loading.K0
-    buoyant = (1 - n) * (soil.rho_s - soil.rho_l) * g
+    g, layers = loading.gravity, soil.soils
+    K0 = np.array([s.nu / (1 - s.nu) if math.isnan(loading.K0) else loading.K0
+                   for s in layers])
+    buoyant = np.array([(1 - s.porosity) * (s.rho_s - s.rho_l) * g for s in layers])
+    thickness = np.asarray(getattr(soil, "thickness", (body.height,)), dtype=float)
+    # The effective stress at each layer's top: the buoyant weight of the layers above.
+    above = np.concatenate([[0.0], np.cumsum(buoyant * thickness)[:-1]])
+    tops = body.height - np.concatenate([[0.0], np.cumsum(thickness)[:-1]])
     with points.fields("x0", "p", "stress") as (x0, pp, sig):
         depth = body.height - x0[:, 1]
+        layer = soil.layer_of(x0[:, 1]) if len(layers) > 1 else np.zeros(len(depth), int)
         pp[:] = soil.rho_l * g * depth
-        sig[:, 1] = -buoyant * depth
-        sig[:, 0] = K0 * sig[:, 1]
+        if len(layers) == 1:        # one layer: as before layers, bit for bit
+            sig[:, 1] = -buoyant[0] * depth
+        else:
+            sig[:, 1] = -(above[layer] + buoyant[layer] * (tops[layer] - x0[:, 1]))
+        sig[:, 0] = K0[layer] * sig[:, 1]
         sig[:, 2] = 0.0
 
 
@@ -187,7 +197,8 @@ def build(comm, body: Body, soil, placement=None, ppc=None):
 
 
 def two_phase_body(comm, body: Body, soil, fields: dict):
-    """Grid and material points of a two-phase (consolidation) ``body`` of ``soil``:
+    """Grid and material points of a two-phase (consolidation) ``body`` of ``soil`` (a
+    soil.Soil, or a soil.Ground whose points get their ``layer``, a field of ``fields``):
     uniform points with ``fields`` ({name: components}, :func:`twophase.point_fields`),
     numbered over the ranks (``id``, for messages and the ordered field output), volume
     ratio J = 1 and the reference positions x0 = x. The run and ``scripts/benchmark``
@@ -195,12 +206,17 @@ def two_phase_body(comm, body: Body, soil, fields: dict):
     with ExitStack() as undo:
         grid = Grid(comm, body.element, body.cells, body.size)
         undo.callback(grid.destroy)
-        points = place(grid, body.ppc, soil.density, "uniform", fields)
+        layered = len(soil.soils) > 1
+        points = place(grid, body.ppc, soil.density_at if layered else soil.density,
+                       "uniform", fields)
         undo.callback(points.destroy)
         offset = comm.tompi4py().exscan(points.n_local) or 0
         with points.fields("x", "x0", "id", "J") as (x, x0, ids, J):
             ids[:] = offset + np.arange(len(ids))     # global numbers
             J[:] = 1.0
             x0[:] = x
+        if layered:
+            with points.fields("layer") as layer:
+                layer[:] = soil.layer_of(x0[:, 1])
         undo.pop_all()
     return grid, points

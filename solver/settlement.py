@@ -41,6 +41,9 @@ class Surface:
         self.H, self.h, self.refs = H, grid.h[1], refs
         self.extent = loading.extent if loading.partial(grid.size[0]) else None
         self.order = min(grid.order, ppc - 1)
+        if refs.layered:
+            self._of_layers(refs)
+            return
         E_c = soil.constrained_modulus
         undrained = E_c + soil.K_l / soil.porosity
         q = loading.load
@@ -58,6 +61,16 @@ class Surface:
                                        "no initial excess pore pressure: U is undefined")
         self.valid = not self.why
         self._generation = None     # of the points when the fit's selection was made
+
+    def _of_layers(self, refs):
+        """The references of a layered column (refs.layered: its classic and consistent
+        :class:`layered.LayeredColumn`)."""
+        classic, consistent = refs.layered
+        self.s0, self.s_inf, self.s0_classic = consistent.s0, consistent.s_inf, classic.s0
+        self.p0 = float(consistent.mean_excess(0.0))
+        self.why = refs.why_degree
+        self.valid = not self.why
+        self._generation = None
 
     def measure(self, points, mpi):
         """(settlement (m), mean p (Pa)) now, on every rank (every 10 steps: the selection
@@ -140,11 +153,14 @@ class Surface:
         Us, Up = (float(u[0]) for u in self.degrees([row]))
         ref = float(self.refs.degree(Tv, "classic"))
         con = float(self.refs.degree(Tv, "consistent"))
+        # U from the mean pressure has its own reference in layers (References.degree_pressure).
+        ref_p = float(self.refs.degree_pressure(Tv, "classic"))
+        con_p = float(self.refs.degree_pressure(Tv, "consistent"))
         return {**out, "U_settlement": Us, "U_pressure": Up, "terzaghi": ref, "consistent": con,
                 "error_settlement_pct": 100 * (Us - ref) / ref,
                 "error_settlement_consistent_pct": 100 * (Us - con) / con,
-                "error_pressure_pct": 100 * (Up - ref) / ref,
-                "error_pressure_consistent_pct": 100 * (Up - con) / con}
+                "error_pressure_pct": 100 * (Up - ref_p) / ref_p,
+                "error_pressure_consistent_pct": 100 * (Up - con_p) / con_p}
 
     def summary(self, reports) -> dict:
         out = {"surface": f"fit of degree {self.order} in y0 to the top cell row's point "

@@ -80,6 +80,11 @@ class Soil:
         """The pore fluid's (rho_l, K_l, mu_l)."""
         return (self.rho_l, self.K_l, self.mu_l)
 
+    @property
+    def soils(self) -> tuple:
+        """The layers (this one), as :attr:`Ground.soils`: code over layers takes either."""
+        return (self,)
+
     # -- densities and moduli -------------------------------------------------------------
     @property
     def density(self) -> float:
@@ -226,6 +231,52 @@ class Ground:
     def elasticity_at(self, y) -> np.ndarray:
         """The skeleton's D (Pa) at heights y (m), (len(y), 3, 3)."""
         return np.stack([s.elasticity() for s in self.soils])[self.layer_of(y)]
+
+    # -- the column as a whole: what sets its time scales ----------------------------------
+    # A layered column has no one c_v; T_v = c_v t / H^2 takes the c_v of the uniform column
+    # that diffuses across H in the same time as the layers in series (the transformed
+    # thickness method: H / sqrt(c_v) = sum d_i / sqrt(c_v,i)), and the wave speeds likewise
+    # the travel time. They scale time and the inertia regime; the step's stability limits
+    # are the layers' own (timestep.criteria takes the layer that governs).
+    def _across(self, values) -> float:
+        """H / sum(d_i / v_i): the speed of the uniform column with the layers' travel time."""
+        return self.height / float(np.sum(np.asarray(self.thickness) / np.asarray(values)))
+
+    @property
+    def density(self) -> float:
+        """The column's weight per unit volume over g, sum rho_i d_i / H (kg/m3)."""
+        return float(self.per_layer("density") @ np.asarray(self.thickness)) / self.height
+
+    @property
+    def c_v(self) -> float:
+        """The equivalent Terzaghi coefficient (m2/s), incompressible water (see above)."""
+        return self._across(np.sqrt(self.per_layer("c_v"))) ** 2
+
+    @property
+    def c2(self) -> float:
+        """The equivalent diffusivity with compressible water (m2/s)."""
+        return self._across(np.sqrt(self.per_layer("c2"))) ** 2
+
+    def wave_speeds(self, S: float = 1.0) -> dict:
+        """The equivalent speeds c, c1 (m/s; the layers' travel time) and diffusivity c2
+        (m2/s), inertia scaled by S."""
+        speeds = [s.wave_speeds(S) for s in self.soils]
+        out = {key: self._across([v[key] for v in speeds]) for key in ("c", "c1")}
+        return {**out, "c2": self.c2}
+
+    def drag_rate(self, S: float = 1.0) -> float:
+        """The slowest layer's decay rate of the relative velocity (1/s)."""
+        return min(s.drag_rate(S) for s in self.soils)
+
+    @property
+    def K_l(self) -> float:
+        """The pore fluid's bulk modulus (Pa), one for every layer."""
+        return self.soils[0].K_l
+
+    @property
+    def rho_l(self) -> float:
+        """The pore fluid's density (kg/m3)."""
+        return self.soils[0].rho_l
 
     def per_layer(self, name: str) -> np.ndarray:
         """A Soil property (a field or a derived one, e.g. ``density``) per layer, from the

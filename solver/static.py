@@ -50,21 +50,31 @@ class Ends(NamedTuple):
 
 
 def settlements(comm, body, soil, loading, element="q9", ppc=3) -> Ends:
-    """The :class:`Ends` of the load of ``loading`` on ``body`` of ``soil`` (one
-    material), solved on the body's cells of type ``element`` with ``ppc`` x ``ppc``
-    points: the mean settlements over the abscissae of the run's top-row points under the
-    load (collective; every rank gets them)."""
+    """The :class:`Ends` of the load of ``loading`` on ``body`` of ``soil`` (a soil.Soil,
+    or a soil.Ground of layers, each point with its layer's moduli), solved on the body's
+    cells of type ``element`` with ``ppc`` x ``ppc`` points: the mean settlements over the
+    abscissae of the run's top-row points under the load (collective; every rank gets
+    them)."""
     m = np.array([1.0, 1.0, 0.0])
-    D = soil.elasticity()
-    stiffness = {"undrained": D + (soil.K_l / soil.porosity) * np.outer(m, m), "drained": D}
+    if len(soil.soils) == 1:
+        D = soil.soils[0].elasticity()
+        stiffness = {"undrained": D + (soil.K_l / soil.soils[0].porosity) * np.outer(m, m),
+                     "drained": D}
+        density = soil.density
+    else:
+        bulk = soil.K_l / soil.per_layer("porosity")       # the water's K_l / n per layer
+        stiffness = {"undrained": lambda y: (soil.elasticity_at(y) + bulk[soil.layer_of(y)]
+                                             [:, None, None] * np.outer(m, m)),
+                     "drained": soil.elasticity_at}
+        density = soil.density_at
     out = {}
     with Grid(comm, body.element, body.cells, body.size) as grid, \
-            place(grid, body.ppc, soil.density, body.placement) as points:
+            place(grid, body.ppc, density, body.placement) as points:
         inside = loaded_points(points, body, loading)
         xs = np.concatenate(comm.tompi4py().allgather(points.views("x")[inside, 0].copy()))
     body = replace(body, element=element, ppc=ppc, placement="gauss")
     with Grid(comm, body.element, body.cells, body.size) as grid, \
-            place(grid, body.ppc, soil.density, body.placement) as points:
+            place(grid, body.ppc, density, body.placement) as points:
         nodes = np.linspace(0.0, body.size[0], grid.nodes[0])
         for name, Dk in stiffness.items():
             top = _top_displacement(grid, points, Dk, body, loading)

@@ -84,9 +84,17 @@ def discrete_limit(comm, body, soil, scheme) -> tuple:
     limit = None
     if comm.getRank() == 0:
         small = _patch(body.element, cells, ESTIMATE_STATE)
-        estimate = _limit_on(body, soil, scheme, small) if small != cells else None
-        limit = (_limit_on(body, soil, scheme, cells, estimate)
-                 * viscous_factor(scheme.bulk_viscosity))
+        layers = soil.soils
+        whole = tuple(cells) == tuple(body.cells)
+        # Layered ground: the whole grid with each point's material; a patch holds one
+        # layer, so every layer gets its patch and the smallest limit governs.
+        estimate = None if small == cells else min(
+            _limit_on(body, layer, scheme, small) for layer in layers)
+        if len(layers) == 1 or whole:
+            limit = _limit_on(body, soil, scheme, cells, estimate)
+        else:
+            limit = min(_limit_on(body, layer, scheme, cells, estimate) for layer in layers)
+        limit *= viscous_factor(scheme.bulk_viscosity)
     return comm.tompi4py().bcast(limit, root=0), cells
 
 
@@ -94,10 +102,11 @@ def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
     """The undamped step's limit (s) on a grid of ``cells`` cells of the body's cell size
     (one rank), searched near ``estimate`` when one is given."""
     size = tuple(L * c / n for L, c, n in zip(body.size, cells, body.cells))
+    density = soil.density_at if len(soil.soils) > 1 else soil.density
     with Grid(PETSc.COMM_SELF, body.element, cells, size) as grid, \
-            place(grid, body.ppc, soil.density, "uniform") as points:
+            place(grid, body.ppc, density, "uniform") as points:
         S = scheme.mass_scaling
-        guess = min(grid.h) / soil.wave_speeds(S)["c1"]
+        guess = min(min(grid.h) / layer.wave_speeds(S)["c1"] for layer in soil.soils)
         if scheme.drag == "explicit":
             guess = min(2 / soil.drag_rate(S), guess)
         return _bisect_limit(_linear_parts(grid, points, body, soil, scheme), scheme.flip,
@@ -126,8 +135,11 @@ def _linear_step(grid, points, body, soil, scheme, dt=0.0):
 def _linear_parts(grid, points, body, soil, scheme):
     """What the linearised step is made of, over the free DOFs: the nodal forces on U
     (``fm``, ``fl``), the lumped masses and drag per DOF, the fixed-phase masks, R."""
-    n = soil.porosity
     x, V = points.get("x", "volume")
+    # The material of each point: its layer's in layered ground, else scalars (the same
+    # arithmetic as before layers).
+    mat = _point_material(soil, x[:, 1])
+    n = mat["porosity"]
     it = assembly.interpolation(grid, x)
     N, dN, nodes = it.N, it.dNdx, it.nodes
     npnt, nen = N.shape
@@ -154,13 +166,15 @@ def _linear_parts(grid, points, body, soil, scheme):
         Wl, Nl, Dl = Wm, Nm, div
     # Inertia scaled by S (-mpm_mass_scaling); drag and forces are not.
     S = scheme.mass_scaling
-    ms, ml, mt = (1 - n) * soil.rho_s * S * V, n * soil.rho_l * S * V, soil.rho_l * S * V
+    ms, ml, mt = (1 - n) * mat["rho_s"] * S * V, n * soil.rho_l * S * V, soil.rho_l * S * V
     Ms = Wm.T @ ms
-    Ml, Mt, Q = (Wl.T @ v for v in (ml, mt, soil.drag_coefficient * V))
-    sig = np.einsum("ij,pjk->pik", soil.elasticity(), B)
+    Ml, Mt, Q = (Wl.T @ v for v in (ml, mt, mat["drag_coefficient"] * V))
+    D = mat["D"]
+    sig = np.einsum("ij,pjk->pik" if D.ndim == 2 else "pij,pjk->pik", D, B)
     sig = np.concatenate([sig, np.zeros_like(sig)], axis=2)            # on (U_s, U_l)
     # dp = -(K_l / n) (div u_s + n div(u_l - u_s)), the relative motion in the liquid's
     # basis: (1 - n) div u_s + n div u_l when that is N.
+    n = np.reshape(n, (-1, 1))
     pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
     if scheme.pressure_projection == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
@@ -187,6 +201,20 @@ def _linear_parts(grid, points, body, soil, scheme):
     return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
             "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
             "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
+
+
+def _point_material(soil, y) -> dict:
+    """Porosity, grain density (kg/m3), drag coefficient (kg/m3/s) and D (Pa) of the points
+    at heights y (m): per point in layered ground (soil.Ground), else the soil's scalars
+    and its one D."""
+    if len(soil.soils) == 1:
+        one = soil.soils[0]
+        return {"porosity": one.porosity, "rho_s": one.rho_s,
+                "drag_coefficient": one.drag_coefficient, "D": one.elasticity()}
+    layer = soil.layer_of(y)
+    out = {name: soil.per_layer(name)[layer] for name in ("porosity", "rho_s",
+                                                          "drag_coefficient")}
+    return {**out, "D": soil.elasticity_at(y)}
 
 
 def _tie(free, tied):
@@ -305,10 +333,16 @@ def criteria(soil, H: float, f1: float, dt_discrete: float, h, S: float = 1.0) -
     the summary: cell sizes h (m), f1 the physical fundamental frequency (Hz), S the mass
     scaling (f1 falls as 1/sqrt(S), the wave limits grow as sqrt(S), the drag limit as S)."""
     L = min(h)
-    s = soil.wave_speeds(S)
     c3 = 2 * np.pi * f1 / np.sqrt(S) * H
-    return {"cfl": L / s["c"], "undrained": L / s["c1"], "diffusion": L * L / (2 * s["c2"]),
-            "oscillator": L / c3, "drag": 2 / soil.drag_rate(S), "discrete": dt_discrete}
+    out = {}
+    # In layered ground (soil.Ground) each criterion is its governing layer's.
+    for layer in soil.soils:
+        s = layer.wave_speeds(S)
+        mine = {"cfl": L / s["c"], "undrained": L / s["c1"], "diffusion": L * L / (2 * s["c2"]),
+                "drag": 2 / layer.drag_rate(S)}
+        out = {k: min(v, out.get(k, v)) for k, v in mine.items()}
+    return {"cfl": out["cfl"], "undrained": out["undrained"], "diffusion": out["diffusion"],
+            "oscillator": L / c3, "drag": out["drag"], "discrete": dt_discrete}
 
 
 def applicable(limits: dict, drag: str) -> dict:

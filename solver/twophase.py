@@ -71,11 +71,13 @@ POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "i
                 "J": 1}
 
 
-def point_fields(scheme) -> dict:
+def point_fields(scheme, layered: bool = False) -> dict:
     """The point fields of a run with ``scheme``: POINT_FIELDS, with the viscous stress (Pa)
     of -mpm_bulk_viscosity and the slow mixture velocity (m/s) of -mpm_fast_damping when
-    on."""
+    on, and in layered ground the point's layer (its index from the surface down)."""
     fields = dict(POINT_FIELDS)
+    if layered:
+        fields["layer"] = 1
     if scheme.bulk_viscosity > 0:
         fields["visc"] = 1
     if scheme.fast_damping > 0:
@@ -133,7 +135,8 @@ class TwoPhase:
 
     def __init__(self, grid, points, soil, body, loading, scheme):
         """The model of ``body`` (scene.Body: supports, drainage) on ``grid`` and
-        ``points``, made of ``soil`` (soil.Soil), under ``loading`` (scene.Loading), stepped
+        ``points``, made of ``soil`` (soil.Soil, or soil.Ground of several layers: the
+        points then carry their ``layer``), under ``loading`` (scene.Loading), stepped
         with ``scheme`` (scheme.Scheme)."""
         self.grid, self.points, self.soil, self.loading = grid, points, soil, loading
         self.lumping = scheme.lumping
@@ -144,18 +147,20 @@ class TwoPhase:
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
         self.hrz = self.lumping != "rowsum"
-        self.nf = NF + self.blend
-        self.D = soil.elasticity()
-        n = soil.porosity
+        # Layers: per-point material (kernels.NL reals per layer), three more nodal sums.
+        self.layers = soil.soils
+        self.layered = len(self.layers) > 1
+        self.nf = NF + self.blend + 3 * self.layered
+        first = self.layers[0]
+        self.D = first.elasticity()
+        n = first.porosity
         self.n = n
-        self.drag = soil.drag_coefficient                   # eq. 12 (kg/m3/s)
+        self.drag = first.drag_coefficient                  # eq. 12 (kg/m3/s)
         # Lumped quantities per unit S = sum w V (uniform porosity and densities). Mass
         # scaling multiplies the inertia only: the drag and the weight stay physical.
-        inertia = scheme.mass_scaling
-        self.c_s = (1 - n) * soil.rho_s * inertia           # M_s / S, kg/m3
-        self.c_l = n * soil.rho_l * inertia                 # M_l / S
-        self.c_t = soil.rho_l * inertia                     # M~_l / S
-        self.c_q = self.drag                                # Q / S, kg/m3/s
+        inertia = self.inertia = scheme.mass_scaling
+        self.c_s, self.c_l, self.c_q = self._lumped(first)  # M_s / S, M_l / S, Q / S
+        self.c_t = first.rho_l * inertia                    # M~_l / S (one fluid)
         self._damping_terms(soil, body.height, scheme)
         self.serial = grid.comm.getSize() == 1
         self.mpi = grid.comm.tompi4py()
@@ -191,6 +196,13 @@ class TwoPhase:
         self.ev_migrate = _event("MPMMigrate")
 
     # -- set-up ----------------------------------------------------------------------------
+    def _lumped(self, soil):
+        """M_s, M_l per unit S (kg/m3, inertia scaled) and Q per unit S (kg/m3/s) of
+        ``soil``."""
+        n = soil.porosity
+        return ((1 - n) * soil.rho_s * self.inertia, n * soil.rho_l * self.inertia,
+                soil.drag_coefficient)
+
     def _damping_terms(self, soil, H, scheme):
         """Coefficients of the two damping terms beside local damping (0: off): the bulk
         viscosity eta = b1 rho c1 h (Pa s), and the fast-part damping rate 2 zeta w1 and
@@ -222,11 +234,12 @@ class TwoPhase:
         # Ghosted-local node of local node a of cell (cx, cy): order (cx + gxm cy) + off[a].
         I[K.ISTX], I[K.ISTY] = g.order, g.order * g.gxm
         I[K.INOWN] = self.nown
+        I[K.ILAYERS] = len(self.layers) if self.layered else 0
 
     def _reals(self):
         """The kernels' real data (kernels.R*, SI units)."""
-        g, K, n, soil = self.grid, kernels, self.n, self.soil
-        R = np.zeros(K.NR)
+        g, K, n, soil = self.grid, kernels, self.n, self.layers[0]
+        R = np.zeros(K.NR + K.NL * len(self.layers) * self.layered)
         R[K.RHX], R[K.RHY] = g.h
         R[K.RSX], R[K.RSY] = 2.0 / g.h[0], 2.0 / g.h[1]
         R[K.RCS], R[K.RCL], R[K.RCT], R[K.RCQ] = self.c_s, self.c_l, self.c_t, self.c_q
@@ -247,6 +260,13 @@ class TwoPhase:
                 R[K.RBOX + 4 * d:K.RBOX + 4 * d + 4] = (
                     1.0, g.h[d], -np.inf if lo == 0 else float(lo),
                     np.inf if hi == g.cells[d] else float(hi))
+        if self.layered:
+            rows = R[K.NR:].reshape(-1, K.NL)
+            for row, layer in zip(rows, self.layers):
+                row[[K.LCS, K.LCL, K.LCQ]] = self._lumped(layer)
+                row[K.LGM] = layer.density * gy
+                row[K.LN] = layer.porosity
+                row[K.LD:] = layer.elasticity().ravel()
         return R
 
     def _node_data(self):
@@ -313,13 +333,14 @@ class TwoPhase:
          self.ids) = pts.views("x", "x0", "volume", "vs", "vl", "stress", "p", "J", "id")
         self.visc = pts.views("visc") if self.eta else None
         self.vslow = pts.views("vslow") if self.fast_rate else None
+        self.layer = pts.views("layer") if self.layered else None
         self.xref = self.x0 if self.small else self.x
         self.n_local = pts.n_local
         slots = {K.PX: self.x, K.PXREF: self.xref, K.PV: self.V, K.PVS: self.vs,
                  K.PVL: self.vl, K.PSIG: self.sig, K.PP: self.pp, K.PJ: self.J,
-                 K.PVISC: self.visc, K.PVSLOW: self.vslow}
+                 K.PVISC: self.visc, K.PVSLOW: self.vslow, K.PLAYER: self.layer}
         C = self._C
-        C[K.PN:K.PVSLOW + 1] = 0
+        C[K.PN:K.PLAYER + 1] = 0
         C[K.PN] = self.n_local
         for slot, a in slots.items():
             if a is not None:
