@@ -206,8 +206,7 @@ def _set_up(p, comm, ctx) -> tuple:
     ctx.begin(summary_path, run_id, options)
     signals.stage("set-up: the time scheme and mass scaling")
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
-    # One layer: its Soil, as before layers; several: the Ground (per-point material).
-    soil = ground if ground.count > 1 else ground.soils[0]
+    soil = ground.as_material()
     scheme = Scheme.from_options(p, soil, min(p.Tv_report))
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)

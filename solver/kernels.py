@@ -274,7 +274,8 @@ def points_to_grid(off, C, hrz, blend):
     """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
     + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), w_l V
-    (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the layer's)."""
+    (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the layer's; the
+    momenta then weighted by c_s and c_l too: w m_s v_s, w_l m_l v_l)."""
     n, nf, layered = C[PN], C[INF], C[ILAYERS] > 0
     R, G = _array(C, AR), _array(C, AGL)
     layer, im = _points1(C, PLAYER), nf - 3
@@ -315,6 +316,9 @@ def points_to_grid(off, C, hrz, blend):
             r = NR + NL * int(layer[k])
             gmV = Vk * R[r + LGM]
             mcs, mcl, mcq = Vk * R[r + LCS], Vk * R[r + LCL], Vk * R[r + LCQ]
+            # Momenta weighted by the point's masses: the nodal velocity is sum w m v / M.
+            msx, msy = msx * R[r + LCS], msy * R[r + LCS]
+            mlx, mly = mlx * R[r + LCL], mly * R[r + LCL]
         elif hrz is None and blend is None:
             # w = w_l = N_l = N: three rows of coefficients, a few vector operations.
             K[SN, 0], K[SN, 1], K[SN, 2], K[SN, 3], K[SN, 4] = Vk, msx, msy, mlx, mly
@@ -469,11 +473,13 @@ def _nodal_update_layered(C, dt, load_factor, damping):
             invSl = 1.0 / Sl if Sl > 0.0 else 0.0
         Ms, Ml, Q, Mt = G[g + im], G[g + im + 1], G[g + im + 2], ct * Sl
         invMs = 1.0 / Ms if Ms > 0.0 else 0.0
+        invMl = 1.0 / Ml if Ml > 0.0 else 0.0
         invMt = 1.0 / Mt if Mt > 0.0 else 0.0
         if implicit:
             coef = _implicit_masses(Ms, Ml, Mt, Q, dt)
         for d in range(2):
-            vsn, vln = G[g + 1 + d] * invS, G[g + 3 + d] * invSl
+            # The momenta are mass-weighted here (points_to_grid).
+            vsn, vln = G[g + 1 + d] * invMs, G[g + 3 + d] * invMl
             fm, fl = G[g + 5 + d], G[g + 7 + d]
             if d == 1:
                 fm += load_factor * B[b]

@@ -206,6 +206,11 @@ class Ground:
     def count(self) -> int:
         return len(self.soils)
 
+    def as_material(self):
+        """What the analyses take: the one Soil of a single layer (its code paths and
+        numbers as before layers), else this Ground (material per point)."""
+        return self.soils[0] if self.count == 1 else self
+
     @property
     def height(self) -> float:
         """H (m)."""

@@ -397,14 +397,15 @@ def ref_shapes():
 
 def typed(p):
     """The typed values the solver's set-up makes of options ``p`` (solver.options.Params):
-    soil, body, loading and scheme, as a namespace (for tests that build models by hand)."""
+    soil (a Soil, or a Ground of several layers), body, loading and scheme, as a namespace
+    (for tests that build models by hand)."""
     from types import SimpleNamespace
 
     from solver.scene import Body, Loading
     from solver.scheme import Scheme
-    from solver.soil import Soil
+    from solver.soil import Ground
 
-    soil = Soil.from_options(p)
+    soil = Ground.from_options(p).as_material()
     return SimpleNamespace(soil=soil, body=Body.from_options(p),
                            loading=Loading.from_options(p),
                            scheme=Scheme.from_options(p, soil, min(p.Tv_report)))

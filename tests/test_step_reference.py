@@ -23,7 +23,6 @@ from petsc4py import PETSc
 from solver import assembly, kernels, twophase
 from solver.grid import Grid
 from solver.points import place
-from solver.soil import Soil
 
 
 def _params(**opts):
@@ -34,25 +33,34 @@ def _params(**opts):
     return scene_options(**{"fast_damping": 0, **opts})
 
 
-def _dampers(p, grid, S):
+def _dampers(p, grid, S, soil):
     """Bulk viscosity eta (Pa s) and the fast-part damping's rates 2 zeta w1 and w1 (1/s),
     from their definitions (options help): eta = b1 rho_m c1 h, w1 = 2 pi c1 / (4 H), with
-    the inertia scaled by S."""
-    soil = Soil.from_options(p)
+    the inertia scaled by S (in layers: the column's mean density and travel-time c1)."""
     c1 = float(soil.wave_speeds(S)["c1"])
     w1 = 2 * np.pi * c1 / (4 * p.size[1])
     return (p.bulk_viscosity * soil.density * S * c1 * min(grid.h),
             2 * p.fast_damping * w1, w1)
 
 
-def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping, flip):
-    """One step of the plain formulation on the state dict ``st`` (serial)."""
+def _material(soil, y0):
+    """Porosity, grain density (kg/m3), drag coefficient (kg/m3/s) and D (Pa, one per
+    point) of the points whose reference heights are y0 (m): in layers, the layer's at y0
+    (the points keep the layer they were made in)."""
+    layer = soil.layer_of(y0) if len(soil.soils) > 1 else np.zeros(len(y0), dtype=int)
+    one = soil.soils
+    return (np.array([s.porosity for s in one])[layer], np.array([s.rho_s for s in one])[layer],
+            np.array([s.drag_coefficient for s in one])[layer],
+            np.stack([s.elasticity() for s in one])[layer])
+
+
+def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping, flip,
+                    soil):
+    """One step of the plain formulation on the state dict ``st`` (serial) of ``soil``."""
     x, V, vs, vl, sig, pp, J = (st[k] for k in ("x", "V", "vs", "vl", "sig", "pp", "J"))
     visc, vslow = st.get("visc"), st.get("vslow")
     small = scheme.kinematics == "small"
-    n = p.porosity
-    D = Soil.from_options(p).elasticity()
-    drag = Soil.from_options(p).drag_coefficient
+    n, rho_s, drag, D = _material(soil, st["layer_y"])
     gvec = np.array([0.0, -p.gravity])
     ng = grid.gxm * grid.gym
     it = assembly.interpolation(grid, st["x0"] if small else x)
@@ -66,7 +74,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
         wl, Nl, dNl = w, N, dN
     # Mass scaling multiplies the inertia; the weight (gravity terms below) stays physical.
     S = scheme.mass_scaling
-    ms, ml, mt = (1 - n) * p.rho_s * V, n * p.rho_l * V, p.rho_l * V
+    ms, ml, mt = (1 - n) * rho_s * V, n * p.rho_l * V, p.rho_l * V
     wm, wt = ms + ml, mt
     ms, ml, mt = S * ms, S * ml, S * mt
     npnt, nen = N.shape
@@ -118,11 +126,11 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     at[:, 6:8] = np.einsum("pa,paf->pf", Nl, Hn[..., 6:8])
     vs[:] = flip * (vs + dt * at[:, 0:2]) + (1 - flip) * at[:, 4:6]
     vl[:] = flip * (vl + dt * at[:, 2:4]) + (1 - flip) * at[:, 6:8]
-    eta, fast, slow = _dampers(p, grid, S)
+    eta, fast, slow = _dampers(p, grid, S, soil)
     if vslow is not None:
         # Both phases lose 2 zeta w1 dt (v_m - v_slow), v_m the momentum-weighted mixture
         # velocity, v_slow its low-pass over 1/w1.
-        cs, cl = (1 - n) * p.rho_s, n * p.rho_l
+        cs, cl = ((1 - n) * rho_s)[:, None], (n * p.rho_l)[:, None]
         vm = (cs * vs + cl * vl) / (cs + cl)
         vslow += dt * slow * (vm - vslow)
         vs -= dt * fast * (vm - vslow)
@@ -131,7 +139,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     # Relative motion in the liquid's basis: div v_s + n div(v_l - v_s).
     div_w = np.einsum("pai,pai->p", Hn[..., 6:8] - Hn[..., 4:6], dNl)
     eps = np.stack([Ls[:, 0, 0], Ls[:, 1, 1], Ls[:, 0, 1] + Ls[:, 1, 0]], axis=1)
-    sig += dt * eps @ D.T
+    sig += dt * np.einsum("pij,pj->pi", D, eps)
     div_s = Ls[:, 0, 0] + Ls[:, 1, 1]
     dp = dt * p.K_l / n * (div_s + n * div_w)
     x += dt * at[:, 4:6]
@@ -218,6 +226,17 @@ CASES = [
     dict(element="q9", cells="4,4", ppc=3, size="1.2,1.2", drained="left,right"),
     dict(element="q4", cells="8,8", size="1.2,1.2", bc_right="none", liquid_basis="blended",
          lumping="hrz", drag="explicit"),
+    # Layered ground: each point its layer's material (masses, drag, weight, D, porosity),
+    # with both drags, bases, lumpings and every damper; contrasts of 4 to 10.
+    dict(element="q4", cells="4,40", layers="0.3,0.7", E="40e6,10e6", k="2.5e-4,2.5e-5",
+         porosity="0.4,0.3", rho_s="2650,2700", nu="0.3,0.2", gravity=9.81),
+    dict(element="q4", cells="4,40", layers="0.25,0.25,0.5", E="10e6,40e6,20e6",
+         k="1e-3,1e-4,5e-4", drag="explicit", damping=0.3, pressure_projection="nodal"),
+    dict(element="q9", cells="3,30", ppc=3, layers="0.4,0.6", E="40e6,10e6", nu="0.25,0.1",
+         porosity="0.35,0.45", liquid_basis="blended", kinematics="large", gravity=9.81,
+         bulk_viscosity=0.2, fast_damping=0.3, flip=0.5),
+    dict(element="q8", cells="3,30", ppc=3, layers="0.5,0.5", k="1e-4,1e-5",
+         lumping="hrz", drained="bottom", mass_scaling=10),
 ]
 
 
@@ -228,7 +247,9 @@ def test_step_matches_reference(opts):
     p = _params(**opts)
     grid = Grid(PETSc.COMM_WORLD, p.element, p.cells, p.size)
     t = typed(p)
-    points = place(grid, p.ppc, t.soil.density, "uniform", twophase.point_fields(t.scheme))
+    layered = len(t.soil.soils) > 1
+    points = place(grid, p.ppc, t.soil.density_at if layered else t.soil.density, "uniform",
+                   twophase.point_fields(t.scheme, layered))
     scheme = t.scheme
     bcs = t.body.supports
     rng = np.random.default_rng(7)
@@ -258,6 +279,10 @@ def test_step_matches_reference(opts):
             vslow[:] = rng.normal(size=vslow.shape) * 1e-4
         names["vslow"] = "vslow"
     ref = dict(zip(names, points.get(*names.values())))
+    ref["layer_y"] = ref["x0"][:, 1].copy()
+    if layered:
+        with points.fields("layer") as layer:
+            layer[:] = t.soil.layer_of(ref["layer_y"])
     model = twophase.TwoPhase(grid, points, t.soil, t.body, t.loading, scheme)
     compiled = kernels.compile_counts()
     dt = 1e-6
@@ -272,7 +297,8 @@ def test_step_matches_reference(opts):
         ramp = 0.5 + 0.25 * k
         model.step(dt, ramp, p.damping, p.flip)
         model.migrate_if_needed((0, 0))
-        _reference_step(grid, p, scheme, bcs, model.traction, ref, dt, ramp, p.damping, p.flip)
+        _reference_step(grid, p, scheme, bcs, model.traction, ref, dt, ramp, p.damping, p.flip,
+                        t.soil)
     # The step compiled nothing: every kernel variant was made (or loaded) at set-up.
     assert kernels.compile_counts() == compiled
     del names["x0"], names["V"]
