@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, jacobi, layered, memory, output, provenance, signals
+from . import analytic, figures, jacobi, layered, memory, output, provenance, signals
 from .errors import InputError, InternalError, Interrupted, NumericalError, agree
 from .failure import RunFailure
 from .frequency import frequencies, slepc_solve
@@ -474,8 +474,7 @@ def mode_figure(grid, coords, modes, freqs, rod, ground, scale):
             shape = shapes[k] * (np.sign(np.dot(np.interp(y[order], yy, shapes[k]), uy)) or 1.0)
             ax.plot(shape, yy, "k--", lw=0.8,
                     label=f"rod {hz(rod[k])} Hz" if k < len(rod) else "rod")
-        for level in ground.bottoms[:-1]:          # the layer interfaces
-            ax.axhline(level, color="tab:brown", lw=0.7, ls=":")
+        figures.layer_interfaces(ax, ground)
         ax.set_xlabel("u_y (normalised)", fontsize=8)
         if k == 0:
             ax.set_ylabel("height y (m)")

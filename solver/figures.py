@@ -19,6 +19,15 @@ CLASSIC = dict(ls="-", lw=1.2)
 COMPRESSIBLE = dict(ls=":", lw=1.2)
 
 
+def layer_interfaces(ax, soil, label: bool = False):
+    """Dotted horizontal lines at the layer interfaces of ``soil`` (a soil.Ground; nothing
+    for one soil), on a plot against height y (m); ``label`` names them once in the
+    legend."""
+    for i, level in enumerate(getattr(soil, "bottoms", ())[:-1]):
+        ax.axhline(level, color="tab:brown", lw=0.7, ls=":",
+                   label="layer interface" if label and i == 0 else None)
+
+
 def tv_colors(plt, n: int):
     """One colour per report time, early (dark) to late (light), from the same map."""
     return plt.get_cmap(PRESSURE_CMAP)(np.linspace(0.0, 0.85, max(n, 1)))

@@ -166,17 +166,28 @@ def print_limits(comm, limits, dt, soil, body, scheme, patch, how):
     """The critical time steps, each with its formula's numbers, and the step used (how
     it was chosen: ``how``)."""
     S, f1, H = scheme.mass_scaling, limits.f1, body.height
-    speeds = soil.wave_speeds(S)
+    layers = soil.soils
+    # Each wave and drag criterion is its governing layer's (timestep.criteria): the
+    # fastest speed, the slowest drag decay; named when there are layers.
+    speeds = {key: max(layer.wave_speeds(S)[key] for layer in layers)
+              for key in ("c", "c1", "c2")}
+    rates = [layer.drag_rate(S) for layer in layers]
+
+    def which(values, pick):
+        return f" (layer {values.index(pick(values)) + 1})" if len(layers) > 1 else ""
+
+    where = {key: which([layer.wave_speeds(S)[key] for layer in layers], max)
+             for key in ("c", "c1", "c2")}
     scaled = "" if S == 1 else f", inertia scaled by S = {S:.4g}"
     cells = frequency.f1_cells(body.element, body.cells)
     coarser = "" if cells == tuple(body.cells) else f", on {cells[0]} x {cells[1]} cells"
-    notes = {"cfl": f"L/c, c = {speeds['c']:.4g} m/s{scaled}",
-             "undrained": f"L/c1, c1 = {speeds['c1']:.4g} m/s{scaled}",
-             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4g} m2/s",
+    notes = {"cfl": f"L/c, c = {speeds['c']:.4g} m/s{scaled}{where['c']}",
+             "undrained": f"L/c1, c1 = {speeds['c1']:.4g} m/s{scaled}{where['c1']}",
+             "diffusion": f"L^2/(2 c2), c2 = {speeds['c2']:.4g} m2/s{where['c2']}",
              "oscillator": f"L/c3, c3 = 2 pi f1 H = "
                            f"{2 * np.pi * f1 / np.sqrt(S) * H:.4g} m/s "
                            f"(f1 = {f1 / np.sqrt(S):.4g} Hz{scaled}{coarser})",
-             "drag": f"2/lambda, lambda = {soil.drag_rate(S):.4g} 1/s"
+             "drag": f"2/lambda, lambda = {min(rates):.4g} 1/s{which(rates, min)}"
                      + ("" if scheme.drag == "explicit"
                         else " (no limit: the drag is implicit)"),
              "discrete": "stability limit of the linearised MPM step itself"
@@ -272,6 +283,7 @@ def _isochrone_figure(plt, plan, profiles):
         k = figures.drawn(len(prof))
         ax.plot(refs.excess(prof[k, 1], prof[k, 0]) / refs.q, prof[k, 0], "o", color=col,
                 ms=3, mfc="none", label=None if i else "MPM points")
+    figures.layer_interfaces(ax, plan.soil, label=True)
     ax.set_title(f"Isochrones, {title(plan)}")
     figures.legend_below(ax, ncol=2)
     return fig
