@@ -41,7 +41,7 @@ class Surface:
         self.H, self.h, self.refs = H, grid.h[1], refs
         self.extent = loading.extent if loading.partial(grid.size[0]) else None
         self.order = min(grid.order, ppc - 1)
-        if refs.layered:
+        if len(soil.soils) > 1:
             self._of_layers(refs)
             return
         E_c = soil.constrained_modulus
@@ -63,12 +63,17 @@ class Surface:
         self._generation = None     # of the points when the fit's selection was made
 
     def _of_layers(self, refs):
-        """The references of a layered column (refs.layered: its classic and consistent
-        :class:`layered.LayeredColumn`)."""
+        """The references of layered ground (refs.layered: its column's classic and
+        consistent :class:`layered.LayeredColumn`; none for a scene without a reference)."""
+        self.why = refs.why_degree
+        if not refs.layered:
+            self.s0 = self.s_inf = self.s0_classic = self.p0 = np.nan
+            self.valid = False
+            self._generation = None
+            return
         classic, consistent = refs.layered
         self.s0, self.s_inf, self.s0_classic = consistent.s0, consistent.s_inf, classic.s0
         self.p0 = float(consistent.mean_excess(0.0))
-        self.why = refs.why_degree
         self.valid = not self.why
         self._generation = None
 

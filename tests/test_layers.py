@@ -103,9 +103,15 @@ BAD = [
     (["-mpm_layers", "0.55,0.45"], "-mpm_layers 0.55,0.45: the interface at depth 0.55 m is "
                                    "not on a cell boundary (cells 0.1 m high, -mpm_cells); "
                                    "interfaces inside a cell are not supported"),
-    (["-mpm_analysis", "consolidation", "-mpm_layers", "0.5,0.5"],
-     "-mpm_layers 0.5,0.5: layered consolidation is not supported yet (the eigen analysis "
-     "takes layers)"),
+    (["-mpm_analysis", "consolidation", "-mpm_layers", "0.5,0.3"],
+     "-mpm_layers 0.5,0.3: the thicknesses sum to 0.8 m, not the body's height 1 m "
+     "(-mpm_size)"),
+    (["-mpm_analysis", "consolidation", "-mpm_layers", "0.5,0.5", "-mpm_k", "1e-4,1e-5,1e-6"],
+     "-mpm_k 0.0001,1e-05,1e-06: 3 values for 2 layer(s) of -mpm_layers; give one value or "
+     "one per layer"),
+    (["-mpm_analysis", "consolidation", "-mpm_layers", "0.45,0.55"],
+     "-mpm_layers 0.45,0.55: the interface at depth 0.45 m is not on a cell boundary (cells "
+     "0.1 m high, -mpm_cells); interfaces inside a cell are not supported"),
     (["-mpm_analysis", "consolidation", "-mpm_E", "1e7,2e7"],
      "-mpm_E 1e+07,2e+07: 2 values for 1 layer(s) (a list needs -mpm_layers, one thickness "
      "per layer)"),
