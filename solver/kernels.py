@@ -466,11 +466,7 @@ def _nodal_update_layered(C, dt, load_factor, damping):
     for k in range(C[INOWN]):
         g, o, b = k * nf, k * NG, k * NB
         S = G[g]
-        invS = 1.0 / S if S > 0.0 else 0.0
-        Sl, invSl = S, invS
-        if blend:
-            Sl = G[g + 9]
-            invSl = 1.0 / Sl if Sl > 0.0 else 0.0
+        Sl = G[g + 9] if blend else S
         Ms, Ml, Q, Mt = G[g + im], G[g + im + 1], G[g + im + 2], ct * Sl
         invMs = 1.0 / Ms if Ms > 0.0 else 0.0
         invMl = 1.0 / Ml if Ml > 0.0 else 0.0
@@ -510,20 +506,17 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     ``pacc``), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, volume ratio J."""
     n, project = C[PN], C[IPROJ]
     R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
-    x, xr, V, vs, vl, sig, pp, J, visc, vslow = _g2p_fields(C)
+    x, xr, V, vs, vl, sig, pp, J, visc, vslow, layer = _g2p_fields(C)
     blended = blend is not None
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
-    layered, layer = C[ILAYERS] > 0, _points1(C, PLAYER)
-    pic = flip != 1.0
+    pic, layered = flip != 1.0, C[ILAYERS] > 0
     On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
-    if project:
-        pacc[:] = 0.0
+    pacc[:] = 0.0                               # (empty without the projection)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off)), (NS, nen))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
-    # Sums over nodes of S[r, a] O[a, f] per row of S: N, dN/dx, dN/dy (and blended N_hat).
-    A = carray(_on_stack(_ZROWS), (NS, NFMAX))
+    A = carray(_on_stack(_ZROWS), (NS, NFMAX))  # sum_a S[r, a] O[a, f], rows as S's
     nr = 3 if blend is None else NS
     for k in range(n):
         if layered:
@@ -594,7 +587,7 @@ def _g2p_fields(C):
     """The point fields grid_to_points writes or reads, as views into the points' arrays."""
     return (_points(C, PX, 2), _points(C, PXREF, 2), _points1(C, PV), _points(C, PVS, 2),
             _points(C, PVL, 2), _points(C, PSIG, 3), _points1(C, PP), _points1(C, PJ),
-            _points1(C, PVISC), _points(C, PVSLOW, 2))
+            _points1(C, PVISC), _points(C, PVSLOW, 2), _points1(C, PLAYER))
 
 
 @_jit
