@@ -24,7 +24,7 @@ def layer_interfaces(ax, soil, label: bool = False):
     for one soil), on a plot against height y (m); ``label`` names them once in the
     legend."""
     for i, level in enumerate(getattr(soil, "bottoms", ())[:-1]):
-        ax.axhline(level, color="tab:brown", lw=0.7, ls=":",
+        ax.axhline(level, color="tab:brown", lw=0.9, ls=":", zorder=3,
                    label="layer interface" if label and i == 0 else None)
 
 
@@ -85,11 +85,11 @@ def drawn(n: int, most: int = MAX_DRAWN) -> slice:
 
 
 def pressure_field(plt, snapshots, q: float, title: str, width: float = None,
-                   height: float = None):
+                   height: float = None, soil=None):
     """A figure of the pore-pressure field, one panel per snapshot (T_v, x (m), height (m),
     p (Pa)) of the points, on one colour scale from 0 to the load ``q`` (Pa), in kPa: side
     by side for a column, one above the other for a body wider than high (``width``,
-    ``height`` in m)."""
+    ``height`` in m); the layer interfaces of ``soil`` (a soil.Ground) dotted."""
     n = len(snapshots)
     wide = bool(width and height and width > height)
     if wide:
@@ -105,6 +105,7 @@ def pressure_field(plt, snapshots, q: float, title: str, width: float = None,
                         cmap=PRESSURE_CMAP, vmin=0, vmax=q / 1e3)
         ax.set_title(f"T_v = {Tv:g}", fontsize=9)
         ax.set_aspect("equal")
+        layer_interfaces(ax, soil)
         if wide:
             ax.set_ylabel("y (m)")
             ax.set_xlim(0, width)

@@ -263,7 +263,7 @@ def _figures(plan, profiles, hist):
               for Tv, _, prof in shown],
         plan.refs.q, f"Pore pressure field, {plan.body.element.upper()}, "
                      f"{len(shown[0][2])} MPs", width=plan.body.size[0],
-        height=plan.body.size[1])
+        height=plan.body.size[1], soil=plan.soil)
     files.update(output.save_figures(fig, out.folder, "pressure_field", out.formats))
     files.update(output.save_figures(_monitor_figure(plt, plan, hist), out.folder, "monitor",
                                      out.formats))
