@@ -165,3 +165,22 @@ def _datasets(fh):
     out = []
     fh.visititems(lambda name, obj: out.append(name) if isinstance(obj, h5py.Dataset) else None)
     return out
+
+
+def test_layer_interfaces_are_drawn_at_the_layer_bottoms():
+    """The figures' interface lines lie at the layers' bottoms (not the base); none for one
+    soil."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from solver import figures
+
+    fig, ax = plt.subplots()
+    figures.layer_interfaces(ax, Ground((0.25, 0.5, 0.25), (Soil(),) * 3), label=True)
+    figures.layer_interfaces(ax, Soil())
+    levels = sorted(line.get_ydata()[0] for line in ax.get_lines())
+    assert levels == pytest.approx([0.25, 0.75])
+    assert [t.get_text() for t in ax.legend().get_texts()] == ["layer interface"]
+    plt.close(fig)
