@@ -270,13 +270,13 @@ def _blended(off, R, xi, eta, S):
 
 # -- points to grid -------------------------------------------------------------------------
 @_jit
-def points_to_grid(off, C, hrz, blend):
+def points_to_grid(off, C, hrz, blend, layered):
     """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
     + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), w_l V
     (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the layer's; the
     momenta then weighted by c_s and c_l too: w m_s v_s, w_l m_l v_l)."""
-    n, nf, layered = C[PN], C[INF], C[ILAYERS] > 0
+    n, nf = C[PN], C[INF]
     R, G = _array(C, AR), _array(C, AGL)
     layer, im = _points1(C, PLAYER), nf - 3
     mcs = mcl = mcq = 0.0
@@ -312,7 +312,7 @@ def points_to_grid(off, C, hrz, blend):
         t01 = -(sig[k, 2] * Vk)
         msx, msy, mlx, mly = vs[k, 0] * Vk, vs[k, 1] * Vk, vl[k, 0] * Vk, vl[k, 1] * Vk
         pV, gmV, glV = p * Vk, Vk * gm, Vk * gl
-        if layered:
+        if layered is not None:
             r = NR + NL * int(layer[k])
             gmV = Vk * R[r + LGM]
             mcs, mcl, mcq = Vk * R[r + LCS], Vk * R[r + LCL], Vk * R[r + LCQ]
@@ -345,7 +345,7 @@ def points_to_grid(off, C, hrz, blend):
             g[8] += S[rly, a] * pV + Nl * glV
             if blend is not None:
                 g[9] += Nl * Vk
-            if layered:
+            if layered is not None:
                 g[im] += w * mcs
                 g[im + 1] += wl * mcl
                 g[im + 2] += wl * mcq
@@ -500,7 +500,7 @@ def _nodal_update_layered(C, dt, load_factor, damping):
 
 # -- grid to points -------------------------------------------------------------------------
 @_jit
-def grid_to_points(off, C, hrz, blend, dt, flip):
+def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     """Grid to points from O (ghosted-local nodes x NG): velocities (FLIP, or FLIP/PIC blend
     ``flip``), stress (D d eps), pore pressure (eqs. 8-9; projected: nodal sums w V dp into
     ``pacc``), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, volume ratio J."""
@@ -509,7 +509,7 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     x, xr, V, vs, vl, sig, pp, J, visc, vslow, layer = _g2p_fields(C)
     blended = blend is not None
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
-    pic, layered = flip != 1.0, C[ILAYERS] > 0
+    pic = flip != 1.0
     On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
     pacc[:] = 0.0                               # (empty without the projection)
     nen = len(off)
@@ -519,7 +519,7 @@ def grid_to_points(off, C, hrz, blend, dt, flip):
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))  # sum_a S[r, a] O[a, f], rows as S's
     nr = 3 if blend is None else NS
     for k in range(n):
-        if layered:
+        if layered is not None:
             D, n_, cdiv, kdp, fs, fl = _layer_constants(R, int(layer[k]), blended, dt)
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None and project:
@@ -652,9 +652,9 @@ def project_back(off, C):
 
 
 @_jit
-def grid_to_points_serial(off, C, hrz, blend, dt, flip):
+def grid_to_points_serial(off, C, hrz, blend, layered, dt, flip):
     """One rank: grid to points, then the projection (ghosted-local = owned nodes)."""
-    grid_to_points(off, C, hrz, blend, dt, flip)
+    grid_to_points(off, C, hrz, blend, layered, dt, flip)
     if C[IPROJ]:
         project_nodes(C)
         project_back(off, C)
@@ -708,25 +708,26 @@ KERNELS = (points_to_grid, nodal_update, grid_to_points, project_nodes, project_
 _warm = {}
 
 
-def warm_up(nen: int, hrz, blend) -> dict:
+def warm_up(nen: int, hrz, blend, layered=None) -> dict:
     """Compile (first run) or load from the cache every kernel for the argument types the
-    step of a cell with ``nen`` nodes and lumping and liquid basis ``hrz`` and ``blend``
-    (None or True) uses, once per process and variant, on empty data (no points, no
+    step of a cell with ``nen`` nodes, lumping and liquid basis ``hrz`` and ``blend`` and
+    material ``layered`` (each None or True) uses, once per process and variant, on empty
+    data (no points, no
     nodes). Returns the seconds this took and how many kernel variants were compiled and
     loaded from the disk cache in this process so far."""
-    key = (nen, hrz, blend)
+    key = (nen, hrz, blend, layered)
     if key in _warm:
         return _warm[key]
     t = time.perf_counter()
     off = (0,) * nen
     C = context({AR: np.zeros(NR), AB: np.zeros(NB), AGL: np.zeros(NF), AGO: np.zeros(NF),
                  AOL: np.zeros(NG), AOO: np.zeros(NG)})
-    points_to_grid(off, C, hrz, blend)
+    points_to_grid(off, C, hrz, blend, layered)
     nodal_update(C, 0.0, 0.0, 0.0)
-    grid_to_points(off, C, hrz, blend, 0.0, 1.0)
+    grid_to_points(off, C, hrz, blend, layered, 0.0, 1.0)
     project_nodes(C)
     project_back(off, C)
-    grid_to_points_serial(off, C, hrz, blend, 0.0, 1.0)
+    grid_to_points_serial(off, C, hrz, blend, layered, 0.0, 1.0)
     leaving(C)
     problems(C, 0.0, 0.0, 0.0, 0.0)
     _warm[key] = dict(seconds=time.perf_counter() - t, **compile_counts())

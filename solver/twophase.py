@@ -96,20 +96,21 @@ def _event(name: str):
     return ev
 
 
-def kernel_variant(element: str, scheme) -> tuple:
-    """The compiled variant of the step's kernels for a cell type and scheme: the number of
-    the cell's nodes, and the lumping and liquid basis as None (row sums, the element's
-    basis) or True (HRZ, blended): their types select the machine code."""
+def kernel_variant(element: str, scheme, layered: bool = False) -> tuple:
+    """The compiled variant of the step's kernels for a cell type, scheme and material: the
+    number of the cell's nodes, and the lumping, liquid basis and material as None (row
+    sums, the element's basis, one material) or True (HRZ, blended, per-point layers):
+    their types select the machine code (one material pays nothing for layers)."""
     return (len(shapes.OFFSETS[element]), True if scheme.lumping != "rowsum" else None,
-            True if scheme.liquid_basis == "blended" else None)
+            True if scheme.liquid_basis == "blended" else None, True if layered else None)
 
 
-def compile_kernels(element: str, scheme) -> dict:
+def compile_kernels(element: str, scheme, layered: bool = False) -> dict:
     """Compile (first run on a machine) or load from the disk cache the step's kernels for
-    a cell type and scheme, once per process, timed by the MPMCompile log event; returns
-    :func:`solver.kernels.warm_up`'s record (seconds, compiled, loaded)."""
+    a cell type, scheme and material, once per process, timed by the MPMCompile log event;
+    returns :func:`solver.kernels.warm_up`'s record (seconds, compiled, loaded)."""
     with _event("MPMCompile"):
-        return kernels.warm_up(*kernel_variant(element, scheme))
+        return kernels.warm_up(*kernel_variant(element, scheme, layered))
 
 
 def compile_defaults() -> None:
@@ -117,7 +118,8 @@ def compile_defaults() -> None:
     that a machine's first runs compile nothing (``scripts/install`` calls this)."""
     t = time.perf_counter()
     for element in shapes.OFFSETS:
-        record = compile_kernels(element, Scheme.resolve(element, {}))
+        for layered in (False, True):
+            record = compile_kernels(element, Scheme.resolve(element, {}), layered)
     PETSc.Sys.Print(f"Step kernels of {', '.join(shapes.OFFSETS).upper()} ready in "
                     f"{time.perf_counter() - t:.1f} s ({record['compiled']} compiled, "
                     f"{record['loaded']} loaded from numba's cache)")
@@ -188,8 +190,9 @@ class TwoPhase:
         self._integers(self._C)
         self._gen = None
         self._flags = None
-        _, self._hrz, self._blend = kernel_variant(grid.element, scheme)
-        self.compiled = compile_kernels(grid.element, scheme)
+        _, self._hrz, self._blend, self._layered = kernel_variant(grid.element, scheme,
+                                                                 self.layered)
+        self.compiled = compile_kernels(grid.element, scheme, self.layered)
         self.ev_p2g = _event("MPMPointsToGrid")
         self.ev_nodal = _event("MPMNodalUpdate")
         self.ev_g2p = _event("MPMGridToPoints")
@@ -369,7 +372,7 @@ class TwoPhase:
         # Events as with blocks: ended also when a PETSc call raises (as cheap as
         # begin/end: one method call each way).
         with self.ev_p2g:
-            kernels.points_to_grid(off, C, self._hrz, self._blend)
+            kernels.points_to_grid(off, C, self._hrz, self._blend, self._layered)
             if not self.serial:
                 self.glob_f.zeroEntries()
                 self.da_f.localToGlobal(self.loc_f, self.glob_f,
@@ -382,9 +385,11 @@ class TwoPhase:
 
         with self.ev_g2p:
             if self.serial:
-                kernels.grid_to_points_serial(off, C, self._hrz, self._blend, dt, flip)
+                kernels.grid_to_points_serial(off, C, self._hrz, self._blend, self._layered,
+                                               dt, flip)
             else:
-                kernels.grid_to_points(off, C, self._hrz, self._blend, dt, flip)
+                kernels.grid_to_points(off, C, self._hrz, self._blend, self._layered, dt,
+                                        flip)
                 if self.project:
                     self._project()
 
