@@ -360,18 +360,12 @@ def _sign(v):
 
 
 @_jit
-def _implicit_node(S, Sl, R, dt):
-    """The implicit drag's coefficients of a node, the same for both directions: M_s, M_l,
-    M~_l, Q, 1 / (M_s + M_l) and 1 / (M~_l M_s / (M_s + M_l) + Q dt) (0 where a mass or
-    the denominator is not positive: that phase is then held), so that the directions
-    need no division of their own."""
-    return _implicit_masses(R[RCS] * S, R[RCL] * Sl, R[RCT] * Sl, R[RCQ] * Sl, dt)
-
-
-@_jit
 def _implicit_masses(Ms, Ml, Mt, Q, dt):
-    """_implicit_node's coefficients from the node's masses M_s, M_l, M~_l (kg per m) and
-    drag Q (kg/s per m)."""
+    """The implicit drag's coefficients of a node, the same for both directions, from its
+    masses M_s, M_l, M~_l (kg per m) and drag Q (kg/s per m): M_s, M_l, M~_l, Q,
+    1 / (M_s + M_l) and 1 / (M~_l M_s / (M_s + M_l) + Q dt) (0 where a mass or the
+    denominator is not positive: that phase is then held), so that the directions need no
+    division of their own."""
     Mm = Ms + Ml
     if not Mm > 0.0:
         return Ms, Ml, Mt, Q, 0.0, 0.0
@@ -385,7 +379,7 @@ def _implicit(coef, fm, fl, vsn, vln, held_s, held_l, dt):
     """Accelerations (a_s, a_l) of one DOF with backward Euler on the drag (the twophase
     module docstring): the relative acceleration b first, then a_s = (f_m - M_l b) / (M_s +
     M_l), a_l = a_s + b; a held phase (fixed, or without mass) has a = 0 and v = 0 and the
-    other phase's equation alone. ``coef``: _implicit_node's."""
+    other phase's equation alone. ``coef``: _implicit_masses'."""
     Ms, Ml, Mt, Q, inv_m, inv_den = coef
     vs = 0.0 if held_s else vsn
     vl = 0.0 if held_l else vln
@@ -407,13 +401,13 @@ def nodal_update(C, dt, load_factor, damping):
     unbalanced force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
     (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
     A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
-    same a and v, zero relative flux), fixed where the solid's is."""
+    same a and v, zero relative flux), fixed where the solid's is. In layered material
+    the masses and drag are the node's own sums (a node on an interface has both layers'
+    points around it) and the momenta are mass-weighted (points_to_grid)."""
     nf, blend, implicit, layered = C[INF], C[IBLEND], C[IIMPL], C[ILAYERS] > 0
     R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
-    if layered:
-        _nodal_update_layered(C, dt, load_factor, damping)
-        return
+    im = nf - 3
     for k in range(C[INOWN]):
         g, o, b = k * nf, k * NG, k * NB
         S = G[g]
@@ -423,66 +417,36 @@ def nodal_update(C, dt, load_factor, damping):
             # The liquid's masses and drag from its own weights: S_l = sum N_hat V.
             Sl = G[g + 9]
             invSl = 1.0 / Sl if Sl > 0.0 else 0.0
+        # The masses M_s, M_l and drag Q, the inverses of M_s and M~_l, and what divides
+        # the momenta: S and S_l, or the masses themselves in layered material.
+        if layered:
+            Ms, Ml, Q, Mt = G[g + im], G[g + im + 1], G[g + im + 2], ct * Sl
+            invMs = 1.0 / Ms if Ms > 0.0 else 0.0
+            invMt = 1.0 / Mt if Mt > 0.0 else 0.0
+            div_s, div_l = invMs, 1.0 / Ml if Ml > 0.0 else 0.0
+        else:
+            Ms, Ml, Q, Mt = cs * S, cl * Sl, cq * Sl, ct * Sl
+            invMs, invMt = invS * (1.0 / cs), invSl * (1.0 / ct)
+            div_s, div_l = invS, invSl
         if implicit:
-            coef = _implicit_node(S, Sl, R, dt)
+            coef = _implicit_masses(Ms, Ml, Mt, Q, dt)
         for d in range(2):
-            vsn, vln = G[g + 1 + d] * invS, G[g + 3 + d] * invSl
+            vsn, vln = G[g + 1 + d] * div_s, G[g + 3 + d] * div_l
             fm, fl = G[g + 5 + d], G[g + 7 + d]
             if d == 1:
                 fm += load_factor * B[b]
             if damping != 0.0:
                 # Local (Cundall) damping of the mixture's unbalanced force, against the
-                # mixture momentum, whose sign is that of c_s v_s + c_l (S_l / S) v_l.
-                vmix = cs * vsn + cl * (vln * (Sl * invS) if blend else vln)
+                # mixture momentum, whose sign is that of M_s v_s + M_l v_l (per unit S:
+                # c_s v_s + c_l (S_l / S) v_l).
+                vmix = (Ms * vsn + Ml * vln if layered else
+                        cs * vsn + cl * (vln * (Sl * invS) if blend else vln))
                 fm -= abs(fm) * _sign(vmix) * damping
             free_s, free_l = B[b + 1 + d], B[b + 3 + d]
             if free_l == 0.0:
                 # Normal to an impermeable side: no flow relative to the skeleton, w . n = 0.
                 # The liquid moves with the solid, both by the mixture's equation; the
                 # liquid's equation only gives the side's reaction. Held with the solid.
-                Mm = cs * S + cl * Sl
-                a_s = fm / Mm if Mm > 0.0 else 0.0
-                a_l, vln, free_l = a_s, vsn, free_s
-            elif implicit:
-                a_s, a_l = _implicit(coef, fm, fl, vsn, vln, free_s == 0.0 or S <= 0.0,
-                                     Sl <= 0.0, dt)
-            else:
-                a_l = (fl - (vln - vsn) * (cq * Sl)) * (invSl * (1.0 / ct))
-                a_s = (fm - a_l * (cl * Sl)) * (invS * (1.0 / cs))
-            O[o + d] = a_s * free_s
-            O[o + 2 + d] = a_l * free_l
-            O[o + 4 + d] = (a_s * dt + vsn) * free_s
-            O[o + 6 + d] = (a_l * dt + vln) * free_l
-
-
-@_jit
-def _nodal_update_layered(C, dt, load_factor, damping):
-    """nodal_update with the masses and drag of layered material: summed per node (the
-    last three nodal sums), so that a node on an interface has the mass of both layers'
-    points around it; the same equations."""
-    nf, blend, implicit = C[INF], C[IBLEND], C[IIMPL]
-    R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
-    ct, im = R[RCT], nf - 3
-    for k in range(C[INOWN]):
-        g, o, b = k * nf, k * NG, k * NB
-        S = G[g]
-        Sl = G[g + 9] if blend else S
-        Ms, Ml, Q, Mt = G[g + im], G[g + im + 1], G[g + im + 2], ct * Sl
-        invMs = 1.0 / Ms if Ms > 0.0 else 0.0
-        invMl = 1.0 / Ml if Ml > 0.0 else 0.0
-        invMt = 1.0 / Mt if Mt > 0.0 else 0.0
-        if implicit:
-            coef = _implicit_masses(Ms, Ml, Mt, Q, dt)
-        for d in range(2):
-            # The momenta are mass-weighted here (points_to_grid).
-            vsn, vln = G[g + 1 + d] * invMs, G[g + 3 + d] * invMl
-            fm, fl = G[g + 5 + d], G[g + 7 + d]
-            if d == 1:
-                fm += load_factor * B[b]
-            if damping != 0.0:
-                fm -= abs(fm) * _sign(Ms * vsn + Ml * vln) * damping
-            free_s, free_l = B[b + 1 + d], B[b + 3 + d]
-            if free_l == 0.0:
                 Mm = Ms + Ml
                 a_s = fm / Mm if Mm > 0.0 else 0.0
                 a_l, vln, free_l = a_s, vsn, free_s
