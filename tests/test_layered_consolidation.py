@@ -184,3 +184,26 @@ def test_layer_interfaces_are_drawn_at_the_layer_bottoms():
     assert levels == pytest.approx([0.25, 0.75])
     assert [t.get_text() for t in ax.legend().get_texts()] == ["layer interface"]
     plt.close(fig)
+
+
+@pytest.mark.parametrize("scene, extra", [
+    ("consolidation-layered", ["-mpm_Tv_end", "0.01", "-mpm_Tv_report", "0.005,0.01"]),
+    ("consolidation-strip-layered", ["-mpm_cells", "16,8", "-mpm_Tv_end", "0.01",
+                                     "-mpm_Tv_report", "0.005,0.01"])])
+def test_layered_scenes_agree_on_one_and_two_ranks(cli, tmp_path, scene, extra):
+    """The layered scenes of cases/ (shortened: gravity, geostatic start and mass scaling;
+    a local load with its static ends) on 1 and 2 ranks: reports and profiles equal to
+    1e-10 of q, the static ends to 1e-10 relative."""
+    runs = [check_ok(cli(extra + ["-mpm_progress", "0", "-mpm_figures", "0"], ranks=n,
+                         options_file=scene, out_dir=tmp_path / str(n), process=True))
+            for n in (1, 2)]
+    assert runs[1]["ranks"] == 2 and len(runs[0]["layers"]) == 2
+    np.testing.assert_allclose(runs[1]["monitor"]["p_over_q"], runs[0]["monitor"]["p_over_q"],
+                               rtol=0, atol=1e-10)
+    one, two = (_profiles(tmp_path / str(n)) for n in (1, 2))
+    order = [np.lexsort((r[:, 2], r[:, 3], r[:, 0])) for r in (one, two)]
+    np.testing.assert_allclose(two[order[1]], one[order[0]], rtol=0, atol=1e-10)
+    if "static_references" in runs[0]:
+        for key in ("undrained_m", "final_m", "settlement_last_m"):
+            assert runs[1]["static_references"][key] == pytest.approx(
+                runs[0]["static_references"][key], rel=1e-10)
