@@ -20,11 +20,11 @@ COMPRESSIBLE = dict(ls=":", lw=1.2)
 
 
 def layer_interfaces(ax, soil, label: bool = False):
-    """Dotted horizontal lines at the layer interfaces of ``soil`` (a soil.Ground; nothing
-    for one soil), on a plot against height y (m); ``label`` names them once in the
-    legend."""
+    """Dashed red horizontal lines (red: visible over the pressure colours) at the layer
+    interfaces of ``soil`` (a soil.Ground; nothing for one soil), on a plot against height
+    y (m); ``label`` names them once in the legend."""
     for i, level in enumerate(getattr(soil, "bottoms", ())[:-1]):
-        ax.axhline(level, color="tab:brown", lw=0.9, ls=":", zorder=3,
+        ax.axhline(level, color="tab:red", lw=1.2, ls="--", zorder=3,
                    label="layer interface" if label and i == 0 else None)
 
 
@@ -89,7 +89,7 @@ def pressure_field(plt, snapshots, q: float, title: str, width: float = None,
     """A figure of the pore-pressure field, one panel per snapshot (T_v, x (m), height (m),
     p (Pa)) of the points, on one colour scale from 0 to the load ``q`` (Pa), in kPa: side
     by side for a column, one above the other for a body wider than high (``width``,
-    ``height`` in m); the layer interfaces of ``soil`` (a soil.Ground) dotted."""
+    ``height`` in m); the layer interfaces of ``soil`` (a soil.Ground) dashed."""
     n = len(snapshots)
     wide = bool(width and height and width > height)
     if wide:
