@@ -222,7 +222,7 @@ def test_three_layer_column_matches_the_layered_rod(cli, monkeypatch):
     assert np.all(np.abs(fe / rod[:3] - 1) < 5e-3)
     (fig,) = figs
     levels = sorted({ln.get_ydata()[0] for ax in fig.axes for ln in ax.get_lines()
-                     if ln.get_linestyle() == ":"})
+                     if ln.get_linestyle() == "--" and ln.get_color() == "tab:red"})
     np.testing.assert_allclose(levels, [10.0, 20.0])
     rods = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_label().startswith("rod")]
     assert len(rods) == 5
