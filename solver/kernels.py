@@ -558,10 +558,8 @@ def _g2p_fields(C):
 def _g2p_constants(R, blended, dt):
     """D (Pa), n, the divergence weight, dt K_l / n (Pa), eta (Pa s), the damping rates (1/s)
     and the phases' mass fractions for grid_to_points."""
-    n_ = R[RN]
-    cdiv = 1.0 if blended else 1.0 - n_    # div v_s + n div(v_l - v_s), or (1 - n) div v_s
-    fs, fl = R[RCS] / (R[RCS] + R[RCL]), R[RCL] / (R[RCS] + R[RCL])
-    return R[RD:RD + 9], n_, cdiv, dt * R[RKL] / n_, R[RETA], R[RFAST], R[RSLOW], fs, fl
+    D, n_, cdiv, kdp, fs, fl = _material(R, RD, R[RN], R[RCS], R[RCL], blended, dt)
+    return D, n_, cdiv, kdp, R[RETA], R[RFAST], R[RSLOW], fs, fl
 
 
 @_jit
@@ -569,10 +567,16 @@ def _layer_constants(R, layer, blended, dt):
     """_g2p_constants' material part for a point of ``layer``: D (Pa), n, the divergence
     weight, dt K_l / n (Pa) and the phases' mass fractions."""
     r = NR + NL * layer
-    n_ = R[r + LN]
-    cdiv = 1.0 if blended else 1.0 - n_
-    cs, cl = R[r + LCS], R[r + LCL]
-    return R[r + LD:r + LD + 9], n_, cdiv, dt * R[RKL] / n_, cs / (cs + cl), cl / (cs + cl)
+    return _material(R, r + LD, R[r + LN], R[r + LCS], R[r + LCL], blended, dt)
+
+
+@_jit
+def _material(R, d, n_, cs, cl, blended, dt):
+    """The material constants of grid_to_points from D at R[d:d + 9] (Pa), the porosity
+    n_ and the masses per unit S cs, cl: D, n, the divergence weight, dt K_l / n (Pa) and
+    the phases' mass fractions."""
+    cdiv = 1.0 if blended else 1.0 - n_    # div v_s + n div(v_l - v_s), or (1 - n) div v_s
+    return R[d:d + 9], n_, cdiv, dt * R[RKL] / n_, cs / (cs + cl), cl / (cs + cl)
 
 
 @_jit

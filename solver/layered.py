@@ -290,31 +290,29 @@ class LayeredColumn:
                 row[lo:lo + _CHUNK] = acc
         return out.reshape(times.shape + np.shape(np.asarray(y)))
 
-    def settlement(self, t) -> np.ndarray:
-        """Settlement (m, downwards) at times ``t`` (s): int (sigma_v - rho_l g z - u) / E_c
-        dy; s0 at t <= 0."""
+    def _over_time(self, t, initial: float, weights: str, offset: float = 0.0,
+                   sign: float = 1.0) -> np.ndarray:
+        """offset + sign sum_j c_j exp(-w_j^2 t) W_j at times ``t`` (s), W the per-mode
+        integrals named ``weights`` ('_settle', '_mean'); ``initial`` at t <= 0."""
         times = np.asarray(t, dtype=float)
         out = np.empty(times.size)
         for i, ti in enumerate(times.reshape(-1)):
             if ti <= 0:
-                out[i] = self.s0
+                out[i] = initial
                 continue
             w, e = self._at(float(ti))
-            out[i] = self.s_eff - float(e @ self._settle[:w.size])
+            out[i] = offset + sign * float(e @ getattr(self, weights)[:w.size])
         return out.reshape(times.shape)[()]
+
+    def settlement(self, t) -> np.ndarray:
+        """Settlement (m, downwards) at times ``t`` (s): int (sigma_v - rho_l g z - u) / E_c
+        dy; s0 at t <= 0."""
+        return self._over_time(t, self.s0, "_settle", self.s_eff, -1.0)
 
     def mean_excess(self, t) -> np.ndarray:
         """The mean excess pore pressure over the height (Pa) at times ``t`` (s); the
         undrained one at t <= 0."""
-        times = np.asarray(t, dtype=float)
-        out = np.empty(times.size)
-        for i, ti in enumerate(times.reshape(-1)):
-            if ti <= 0:
-                out[i] = self._integral(1.0) / self.modes.H
-                continue
-            w, e = self._at(float(ti))
-            out[i] = float(e @ self._mean[:w.size])
-        return out.reshape(times.shape)[()]
+        return self._over_time(t, self._integral(1.0) / self.modes.H, "_mean")
 
     def degree(self, t) -> np.ndarray:
         """U = (s - s0) / (s_inf - s0) (dimensionless) at times ``t`` (s); undefined (raises

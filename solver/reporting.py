@@ -169,15 +169,14 @@ def print_limits(comm, limits, dt, soil, body, scheme, patch, how):
     layers = soil.soils
     # Each wave and drag criterion is its governing layer's (timestep.criteria): the
     # fastest speed, the slowest drag decay; named when there are layers.
-    speeds = {key: max(layer.wave_speeds(S)[key] for layer in layers)
-              for key in ("c", "c1", "c2")}
+    each = [layer.wave_speeds(S) for layer in layers]
+    speeds = {key: max(s[key] for s in each) for key in ("c", "c1", "c2")}
     rates = [layer.drag_rate(S) for layer in layers]
 
     def which(values, pick):
         return f" (layer {values.index(pick(values)) + 1})" if len(layers) > 1 else ""
 
-    where = {key: which([layer.wave_speeds(S)[key] for layer in layers], max)
-             for key in ("c", "c1", "c2")}
+    where = {key: which([s[key] for s in each], max) for key in ("c", "c1", "c2")}
     scaled = "" if S == 1 else f", inertia scaled by S = {S:.4g}"
     cells = frequency.f1_cells(body.element, body.cells)
     coarser = "" if cells == tuple(body.cells) else f", on {cells[0]} x {cells[1]} cells"

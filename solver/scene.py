@@ -180,18 +180,17 @@ def build(comm, body: Body, soil, placement=None, ppc=None):
     soil.Ground of layers: each point then takes its layer's density and D; see
     :func:`assembly.stiffness_and_mass`); ``placement`` and ``ppc`` replace the body's
     (the plain FE model: 'gauss'). The caller destroys all five."""
-    layered = getattr(soil, "count", 1) > 1
-    if not layered:
-        soil = getattr(soil, "soils", (soil,))[0]
+    if len(soil.soils) == 1:
+        soil = soil.soils[0]
     with ExitStack() as undo:        # a failure destroys what was made before it
         grid = Grid(comm, body.element, body.cells, body.size)
         undo.callback(grid.destroy)
-        points = place(grid, ppc or body.ppc, soil.density_at if layered else soil.density,
+        points = place(grid, ppc or body.ppc, soil.point_density,
                        placement or body.placement)
         undo.callback(points.destroy)
         # One material keeps its one D: the same K, bit for bit, as before layers.
-        D = soil.elasticity_at if layered else soil.elasticity()
-        K, M, free = assembly.stiffness_and_mass(grid, points, D, body.supports)
+        K, M, free = assembly.stiffness_and_mass(grid, points, soil.point_elasticity,
+                                                 body.supports)
         undo.pop_all()
     return grid, points, K, M, free
 
@@ -206,16 +205,14 @@ def two_phase_body(comm, body: Body, soil, fields: dict):
     with ExitStack() as undo:
         grid = Grid(comm, body.element, body.cells, body.size)
         undo.callback(grid.destroy)
-        layered = len(soil.soils) > 1
-        points = place(grid, body.ppc, soil.density_at if layered else soil.density,
-                       "uniform", fields)
+        points = place(grid, body.ppc, soil.point_density, "uniform", fields)
         undo.callback(points.destroy)
         offset = comm.tompi4py().exscan(points.n_local) or 0
         with points.fields("x", "x0", "id", "J") as (x, x0, ids, J):
             ids[:] = offset + np.arange(len(ids))     # global numbers
             J[:] = 1.0
             x0[:] = x
-        if layered:
+        if len(soil.soils) > 1:
             with points.fields("layer") as layer:
                 layer[:] = soil.layer_of(x0[:, 1])
         undo.pop_all()

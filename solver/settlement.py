@@ -41,6 +41,7 @@ class Surface:
         self.H, self.h, self.refs = H, grid.h[1], refs
         self.extent = loading.extent if loading.partial(grid.size[0]) else None
         self.order = min(grid.order, ppc - 1)
+        self._generation = None     # of the points when the fit's selection was made
         if len(soil.soils) > 1:
             self._of_layers(refs)
             return
@@ -60,7 +61,6 @@ class Surface:
         self.why = refs.why_degree or ("" if self.p0 != 0 else
                                        "no initial excess pore pressure: U is undefined")
         self.valid = not self.why
-        self._generation = None     # of the points when the fit's selection was made
 
     def _of_layers(self, refs):
         """The references of layered ground (refs.layered: its column's classic and
@@ -69,13 +69,11 @@ class Surface:
         if not refs.layered:
             self.s0 = self.s_inf = self.s0_classic = self.p0 = np.nan
             self.valid = False
-            self._generation = None
             return
         classic, consistent = refs.layered
         self.s0, self.s_inf, self.s0_classic = consistent.s0, consistent.s_inf, classic.s0
         self.p0 = float(consistent.mean_excess(0.0))
         self.valid = not self.why
-        self._generation = None
 
     def measure(self, points, mpi):
         """(settlement (m), mean p (Pa)) now, on every rank (every 10 steps: the selection

@@ -85,6 +85,16 @@ class Soil:
         """The layers (this one), as :attr:`Ground.soils`: code over layers takes either."""
         return (self,)
 
+    @property
+    def point_density(self) -> float:
+        """The points' density (kg/m3) as :func:`points.place` takes it: one number."""
+        return self.density
+
+    @property
+    def point_elasticity(self) -> np.ndarray:
+        """The points' D (Pa) as :func:`assembly.stiffness_and_mass` takes it: one 3 x 3."""
+        return self.elasticity()
+
     # -- densities and moduli -------------------------------------------------------------
     @property
     def density(self) -> float:
@@ -229,13 +239,27 @@ class Ground:
         return np.argmax(np.concatenate([below, np.ones(below.shape[:-1] + (1,), bool)],
                                         axis=-1), axis=-1)
 
+    def at(self, name: str, y) -> np.ndarray:
+        """A Soil property (a field or a derived one) at heights y (m): its layer's."""
+        return self.per_layer(name)[self.layer_of(y)]
+
     def density_at(self, y) -> np.ndarray:
         """The saturated density (kg/m3) at heights y (m)."""
-        return np.array([s.density for s in self.soils])[self.layer_of(y)]
+        return self.at("density", y)
 
     def elasticity_at(self, y) -> np.ndarray:
         """The skeleton's D (Pa) at heights y (m), (len(y), 3, 3)."""
         return np.stack([s.elasticity() for s in self.soils])[self.layer_of(y)]
+
+    @property
+    def point_density(self):
+        """The points' density as :func:`points.place` takes it: a function of y."""
+        return self.density_at
+
+    @property
+    def point_elasticity(self):
+        """The points' D as :func:`assembly.stiffness_and_mass` takes it: a function of y."""
+        return self.elasticity_at
 
     # -- the column as a whole: what sets its time scales ----------------------------------
     # A layered column has no one c_v; T_v = c_v t / H^2 takes the c_v of the uniform column

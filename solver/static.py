@@ -60,13 +60,11 @@ def settlements(comm, body, soil, loading, element="q9", ppc=3) -> Ends:
         D = soil.soils[0].elasticity()
         stiffness = {"undrained": D + (soil.K_l / soil.soils[0].porosity) * np.outer(m, m),
                      "drained": D}
-        density = soil.density
     else:
-        bulk = soil.K_l / soil.per_layer("porosity")       # the water's K_l / n per layer
-        stiffness = {"undrained": lambda y: (soil.elasticity_at(y) + bulk[soil.layer_of(y)]
-                                             [:, None, None] * np.outer(m, m)),
+        stiffness = {"undrained": lambda y: (soil.elasticity_at(y) + (
+                         soil.K_l / soil.at("porosity", y))[:, None, None] * np.outer(m, m)),
                      "drained": soil.elasticity_at}
-        density = soil.density_at
+    density = soil.point_density
     out = {}
     with Grid(comm, body.element, body.cells, body.size) as grid, \
             place(grid, body.ppc, density, body.placement) as points:

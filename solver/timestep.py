@@ -102,9 +102,8 @@ def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
     """The undamped step's limit (s) on a grid of ``cells`` cells of the body's cell size
     (one rank), searched near ``estimate`` when one is given."""
     size = tuple(L * c / n for L, c, n in zip(body.size, cells, body.cells))
-    density = soil.density_at if len(soil.soils) > 1 else soil.density
     with Grid(PETSc.COMM_SELF, body.element, cells, size) as grid, \
-            place(grid, body.ppc, density, "uniform") as points:
+            place(grid, body.ppc, soil.point_density, "uniform") as points:
         S = scheme.mass_scaling
         guess = min(min(grid.h) / layer.wave_speeds(S)["c1"] for layer in soil.soils)
         if scheme.drag == "explicit":
@@ -211,9 +210,7 @@ def _point_material(soil, y) -> dict:
         one = soil.soils[0]
         return {"porosity": one.porosity, "rho_s": one.rho_s,
                 "drag_coefficient": one.drag_coefficient, "D": one.elasticity()}
-    layer = soil.layer_of(y)
-    out = {name: soil.per_layer(name)[layer] for name in ("porosity", "rho_s",
-                                                          "drag_coefficient")}
+    out = {name: soil.at(name, y) for name in ("porosity", "rho_s", "drag_coefficient")}
     return {**out, "D": soil.elasticity_at(y)}
 
 
