@@ -22,10 +22,12 @@ Arguments, all kept between steps (no per-step temporaries):
   them alive and in place while the addresses are in use.
 - the nodal arrays are node-major, ``node * nfields + field``, as a DMDA Vec with ``dof =
   nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
-  velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected pressure
-  increments (1 field) and the static data (NB = 5 per owned node: the load's nodal force,
-  then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y); a v_l DOF with 0 is
-  normal to an impermeable side and tied to v_s, see :func:`nodal_update`).
+  velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each; NGL = 10 in layered
+  material, with the Darcy flux), the projected pressure increments (1 field) and the
+  static data (NB = 9 per owned node: the load's nodal force, then 1 or 0 for the free or
+  fixed DOFs of v_s (x, y) and v_l (x, y), a v_l DOF with 0 being normal to an impermeable
+  side and tied to v_s, see :func:`nodal_update`; then the hydrostatic force of the water
+  outside the drained sides on the mixture and on the liquid, x and y each).
 
 Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__`` (or
 ``NUMBA_CACHE_DIR``), so only the first run on a machine compiles; :func:`warm_up` compiles
@@ -51,7 +53,10 @@ _jit = njit(cache=True, **shapes.KERNEL_OPTIONS)
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
-NB = 5        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied)
+NGL = NG + 2  # ... and in layered material the Darcy flux q = n_q (v_l - v_s) (2)
+NLS = 4       # nodal sums layered material adds (the last fields): masses, drag, drag / n
+NB = 9        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied),
+              # the hydrostatic water force of drained sides on the mixture (2), the liquid (2)
 
 # C: point count and point-field addresses ...
 (PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW, PLAYER) = range(12)
@@ -70,8 +75,9 @@ AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(12, 28, 2)
  ISTX, ISTY,    # ghosted-local node offset of one cell step in x and in y
  INOWN,         # owned nodes (the nodal update's range)
  ILAYERS,       # layers of the per-point material table (0: one material, the R* slots)
- ) = range(28, 39)
-NC = 39
+ IWATER,        # 1: drained sides under gravity carry the water's hydrostatic force
+ ) = range(28, 40)
+NC = 40
 
 # R: reals (SI units).
 (RHX, RHY,     # cell size (m)
@@ -88,14 +94,19 @@ RD = 16                   # the plane-strain elasticity matrix D (Pa), 3 x 3 row
 RBOX = RD + 9             # migration box per direction: partitioned (1/0), h, lo, hi
 NR = RBOX + 8
 # Layered material: after the NR reals, one row of NL per layer, indexed by the point's
-# ``layer`` field. Masses and drag then enter the nodes as three more nodal sums (the last
-# three fields: sum w V c_s, sum w_l V c_l, sum w_l V c_q), since their ratio to S varies
-# from node to node; the liquid's M~_l = rho_l S_l keeps its one coefficient (one fluid).
+# ``layer`` field. Masses and drag then enter the nodes as NLS more nodal sums (the last
+# fields: sum w V c_s, sum w_l V c_l, sum w_l V c_q, sum w_l V c_q / n), since their ratio
+# to S varies from node to node; the liquid's M~_l = rho_l S_l keeps its one coefficient
+# (one fluid). The last sum gives the node's flux porosity n_q = sum w_l V c_q / sum w_l V
+# c_q / n: Darcy's law lumped at the node, sum w_l V (c_q / n) q = f_l = Q w, makes the
+# Darcy flux q = n_q w (n_q = n inside a layer), and the storage equation takes the
+# divergence of q, which is continuous across a porosity jump where n w is not.
 (LCS, LCL, LCQ,   # M_s, M_l per unit volume (kg/m3), Q per unit volume (kg/m3/s)
  LGM,             # the mixture's weight per volume, y (N/m3, with the sign of g_y)
  LN,              # porosity
- ) = range(5)
-LD = 5            # the layer's D (Pa), 3 x 3 row-major
+ LCK,             # Q per unit volume over the porosity (kg/m3/s)
+ ) = range(6)
+LD = 6            # the layer's D (Pa), 3 x 3 row-major
 NL = LD + 9
 
 
@@ -274,12 +285,12 @@ def points_to_grid(off, C, hrz, blend, layered):
     """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
     + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), w_l V
-    (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the layer's; the
-    momenta then weighted by c_s and c_l too: w m_s v_s, w_l m_l v_l)."""
+    (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q, w_l V c_q / n (the
+    layer's; the momenta then weighted by c_s and c_l too: w m_s v_s, w_l m_l v_l)."""
     n, nf = C[PN], C[INF]
     R, G = _array(C, AR), _array(C, AGL)
-    layer, im = _points1(C, PLAYER), nf - 3
-    mcs = mcl = mcq = 0.0
+    layer, im = _points1(C, PLAYER), nf - NLS
+    mcs = mcl = mcq = mck = 0.0
     G[:] = 0.0
     Gn = G.reshape((G.shape[0] // nf, nf))      # by node (one index check per node)
     xr, V = _points(C, PXREF, 2), _points1(C, PV)
@@ -316,6 +327,7 @@ def points_to_grid(off, C, hrz, blend, layered):
             r = NR + NL * int(layer[k])
             gmV = Vk * R[r + LGM]
             mcs, mcl, mcq = Vk * R[r + LCS], Vk * R[r + LCL], Vk * R[r + LCQ]
+            mck = Vk * R[r + LCK]
             # Momenta weighted by the point's masses: the nodal velocity is sum w m v / M.
             msx, msy = msx * R[r + LCS], msy * R[r + LCS]
             mlx, mly = mlx * R[r + LCL], mly * R[r + LCL]
@@ -349,6 +361,7 @@ def points_to_grid(off, C, hrz, blend, layered):
                 g[im] += w * mcs
                 g[im + 1] += wl * mcl
                 g[im + 2] += wl * mcq
+                g[im + 3] += wl * mck
 
 
 # -- nodal update ---------------------------------------------------------------------------
@@ -396,8 +409,10 @@ def _implicit(coef, fm, fl, vsn, vln, held_s, held_l, dt):
 
 @_jit
 def nodal_update(C, dt, load_factor, damping):
-    """Accelerations and velocities O (owned nodes x NG) from the sums G (owned nodes x
-    C[INF]): v = sum w V v / S, the load's force, local damping of the mixture's
+    """Accelerations and velocities O (owned nodes x NG, NGL in layered material: the
+    Darcy flux too) from the sums G (owned nodes x C[INF]): v = sum w V v / S, the load's
+    force, the hydrostatic water force on drained sides (C[IWATER]), local damping of the
+    mixture's
     unbalanced force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
     (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
     A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
@@ -405,11 +420,13 @@ def nodal_update(C, dt, load_factor, damping):
     the masses and drag are the node's own sums (a node on an interface has both layers'
     points around it) and the momenta are mass-weighted (points_to_grid)."""
     nf, blend, implicit, layered = C[INF], C[IBLEND], C[IIMPL], C[ILAYERS] > 0
+    water = C[IWATER]
     R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
-    im = nf - 3
+    im, ngf = nf - NLS, NGL if layered else NG
+    nq = 0.0
     for k in range(C[INOWN]):
-        g, o, b = k * nf, k * NG, k * NB
+        g, o, b = k * nf, k * ngf, k * NB
         S = G[g]
         invS = 1.0 / S if S > 0.0 else 0.0
         Sl, invSl = S, invS
@@ -424,6 +441,8 @@ def nodal_update(C, dt, load_factor, damping):
             invMs = 1.0 / Ms if Ms > 0.0 else 0.0
             invMt = 1.0 / Mt if Mt > 0.0 else 0.0
             div_s, div_l = invMs, 1.0 / Ml if Ml > 0.0 else 0.0
+            Qn = G[g + im + 3]
+            nq = Q / Qn if Qn > 0.0 else 0.0
         else:
             Ms, Ml, Q, Mt = cs * S, cl * Sl, cq * Sl, ct * Sl
             invMs, invMt = invS * (1.0 / cs), invSl * (1.0 / ct)
@@ -435,6 +454,10 @@ def nodal_update(C, dt, load_factor, damping):
             fm, fl = G[g + 5 + d], G[g + 7 + d]
             if d == 1:
                 fm += load_factor * B[b]
+            if water:
+                # The water outside a drained side at its hydrostatic pressure.
+                fm += B[b + 5 + d]
+                fl += B[b + 7 + d]
             if damping != 0.0:
                 # Local (Cundall) damping of the mixture's unbalanced force, against the
                 # mixture momentum, whose sign is that of M_s v_s + M_l v_l (per unit S:
@@ -460,21 +483,26 @@ def nodal_update(C, dt, load_factor, damping):
             O[o + 2 + d] = a_l * free_l
             O[o + 4 + d] = (a_s * dt + vsn) * free_s
             O[o + 6 + d] = (a_l * dt + vln) * free_l
+            if layered:
+                O[o + 8 + d] = nq * (O[o + 6 + d] - O[o + 4 + d])
 
 
 # -- grid to points -------------------------------------------------------------------------
 @_jit
 def grid_to_points(off, C, hrz, blend, layered, dt, flip):
-    """Grid to points from O (ghosted-local nodes x NG): velocities (FLIP, or FLIP/PIC blend
-    ``flip``), stress (D d eps), pore pressure (eqs. 8-9; projected: nodal sums w V dp into
-    ``pacc``), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, volume ratio J."""
+    """Grid to points from O (ghosted-local nodes x NG, or NGL): velocities (FLIP, or
+    FLIP/PIC blend ``flip``), stress (D d eps), pore pressure (eqs. 8-9, in layered
+    material from the Darcy flux: dp = -(K_l / n) (div v_s + div q) dt; projected: nodal
+    sums w V dp into ``pacc``), x += dt v_s^{k+1}, viscous stress eta div v_s, fast
+    damping, volume ratio J."""
     n, project = C[PN], C[IPROJ]
     R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
     x, xr, V, vs, vl, sig, pp, J, visc, vslow, layer = _g2p_fields(C)
     blended = blend is not None
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
     pic = flip != 1.0
-    On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
+    ngf = NG if layered is None else NGL
+    On = O.reshape((O.shape[0] // ngf, ngf))    # by node (one index check per node)
     pacc[:] = 0.0                               # (empty without the projection)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
@@ -490,7 +518,7 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
             _hrz_weights(off, S)                  # the projection's weights only
         if blend is not None:
             _blended(off, R, xn, yn, S)
-        A[:nr, :NG] = 0.0
+        A[:nr, :ngf] = 0.0
         for a in range(nen):
             h = On[base + offs[a]]
             sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
@@ -507,6 +535,9 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
                 for f in range(4, NG):
                     A[SLX, f] += sLx * h[f]
                     A[SLY, f] += sLy * h[f]
+            if layered is not None:
+                A[rlx, 8] += S[rlx, a] * h[8]
+                A[rly, 9] += S[rly, a] * h[9]
         # N-interpolated accelerations and velocities, the liquid's in its basis.
         a0, a1, a4, a5 = A[SN, 0], A[SN, 1], A[SN, 4], A[SN, 5]
         a2, a3, a6, a7 = A[rnl, 2], A[rnl, 3], A[rnl, 6], A[rnl, 7]
@@ -530,7 +561,11 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
         divs = l00 + l11
         for i in range(3):
             sig[k, i] += D[3 * i] * e0 + D[3 * i + 1] * e1 + D[3 * i + 2] * e2
-        dp = (divs * cdiv + dvl * n_) * kdp
+        if layered is not None:
+            # The flux, continuous across a porosity jump, in the liquid's basis.
+            dp = (divs + A[rlx, 8] + A[rly, 9]) * kdp
+        else:
+            dp = (divs * cdiv + dvl * n_) * kdp
         if project:
             wV = V[k]
             for a in range(nen):
@@ -689,7 +724,7 @@ def warm_up(nen: int, hrz, blend, layered=None) -> dict:
     t = time.perf_counter()
     off = (0,) * nen
     C = context({AR: np.zeros(NR), AB: np.zeros(NB), AGL: np.zeros(NF), AGO: np.zeros(NF),
-                 AOL: np.zeros(NG), AOO: np.zeros(NG)})
+                 AOL: np.zeros(NG if layered is None else NGL), AOO: np.zeros(NGL)})
     points_to_grid(off, C, hrz, blend, layered)
     nodal_update(C, 0.0, 0.0, 0.0)
     grid_to_points(off, C, hrz, blend, layered, 0.0, 1.0)

@@ -167,6 +167,37 @@ def top_forces(grid, loading) -> np.ndarray:
     return loading.load * top
 
 
+def water_forces(grid, drained, gamma_w: float, blend: float = 1.0) -> np.ndarray:
+    """The nodal forces (N per m depth), (nodes_y, nodes_x, 2), of the water outside the
+    ``drained`` left, right and bottom sides on the body, at its hydrostatic pressure
+    gamma_w (H - y) (Pa; gamma_w in N/m3, the water table at the surface): -int N p n ds
+    over each side (3-point Gauss per cell edge, exact for the element's polynomials). A
+    drained side held at that pressure keeps the water table; without this force it would
+    be held at p = 0 and drain it. ``blend`` < 1 gives the forces in the blended basis
+    w N + (1 - w) N_Q4 (shapes.blended) of a quadratic cell's liquid."""
+    s, w = shapes.gauss_1d(3)
+    order, H = grid.order, grid.size[1]
+    N = blend * shapes.lagrange1d(order, s)[0]                 # (3 Gauss points, order + 1)
+    N[:, [0, order]] += (1 - blend) * shapes.lagrange1d(1, s)[0]
+    F = np.zeros((grid.nodes[1], grid.nodes[0], 2))
+    for side in ("left", "right", "bottom"):
+        if side not in drained:
+            continue
+        d = 0 if side == "bottom" else 1                       # the direction along the side
+        h, cells = grid.h[d], grid.cells[d]
+        t = (np.arange(cells)[:, None] + (1 + s) / 2) * h      # along the side, per edge
+        p = gamma_w * (H - (t if d == 1 else 0.0 * t))
+        edge = np.einsum("g,cg,ga->ca", w * h / 2, p, N)       # (cells, order + 1)
+        f = np.zeros(grid.nodes[d])
+        for a in range(order + 1):
+            f[a:a + order * cells:order] += edge[:, a]
+        if side == "bottom":
+            F[0, :, 1] += f                                    # n = -y: pushes up
+        else:
+            F[:, 0 if side == "left" else -1, 0] += f if side == "left" else -f
+    return F
+
+
 def destroy(*objects) -> None:
     """Destroy PETSc objects and the solver's owners of them (Grid, MaterialPoints,
     TwoPhase) in the order given; None is skipped. Local: no communication."""

@@ -172,9 +172,15 @@ def _linear_parts(grid, points, body, soil, scheme):
     sig = np.einsum("ij,pjk->pik" if D.ndim == 2 else "pij,pjk->pik", D, B)
     sig = np.concatenate([sig, np.zeros_like(sig)], axis=2)            # on (U_s, U_l)
     # dp = -(K_l / n) (div u_s + n div(u_l - u_s)), the relative motion in the liquid's
-    # basis: (1 - n) div u_s + n div u_l when that is N.
-    n = np.reshape(n, (-1, 1))
-    pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
+    # basis: (1 - n) div u_s + n div u_l when that is N. In layers the relative motion is
+    # the nodes' Darcy flux n_q (u_l - u_s), n_q = Q / sum w_l V c_q / n (kernels).
+    if len(soil.soils) > 1:
+        nq = np.tile(Q * _inv(Wl.T @ (mat["drag_coefficient"] / n * V)), 2)
+        n = np.reshape(n, (-1, 1))
+        pres = -(soil.K_l / n) * np.hstack([div - Dl * nq, Dl * nq])
+    else:
+        n = np.reshape(n, (-1, 1))
+        pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
     if scheme.pressure_projection == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
         Sw = Wm.T @ V

@@ -61,10 +61,10 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import kernels, shapes
-from .scene import top_forces
+from .scene import top_forces, water_forces
 from .scheme import Scheme
 from .errors import NumericalError
-from .kernels import NB, NF, NG
+from .kernels import NB, NF, NG, NGL, NLS
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
 POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
@@ -149,10 +149,12 @@ class TwoPhase:
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
         self.hrz = self.lumping != "rowsum"
-        # Layers: per-point material (kernels.NL reals per layer), three more nodal sums.
+        # Layers: per-point material (kernels.NL reals per layer), NLS more nodal sums and
+        # the nodal Darcy flux among the results.
         self.layers = soil.soils
         self.layered = len(self.layers) > 1
-        self.nf = NF + self.blend + 3 * self.layered
+        self.nf = NF + self.blend + NLS * self.layered
+        self.ngf = NGL if self.layered else NG
         first = self.layers[0]
         self.D = first.elasticity()
         n = first.porosity
@@ -174,6 +176,7 @@ class TwoPhase:
         self.fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(body.impermeable).reshape(-1, 2)
         self.traction = self._traction(loading)
+        self.water = self._water(body, loading)
         self._R, self._B = self._reals(), self._node_data()
         # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
         # length selects the kernels' machine code for the cell type.
@@ -226,6 +229,20 @@ class TwoPhase:
             force[-1] = -top_forces(g, loading)[g.xs:g.xe]
         return force.ravel()
 
+    def _water(self, body, loading):
+        """Owned nodal forces (N per m; nodes x 2 for the mixture, then 2 for the liquid in
+        its basis) of the water outside the drained sides at its hydrostatic pressure
+        under gravity (:func:`scene.water_forces`); zeros without gravity."""
+        g = self.grid
+        out = np.zeros((self.nown, 4))
+        gamma_w = self.layers[0].rho_l * loading.gravity
+        if gamma_w > 0:
+            own = np.s_[g.ys:g.ye, g.xs:g.xe]
+            out[:, :2] = water_forces(g, body.drained, gamma_w)[own].reshape(-1, 2)
+            blend = shapes.BLEND if self.blend else 1.0
+            out[:, 2:] = water_forces(g, body.drained, gamma_w, blend)[own].reshape(-1, 2)
+        return out
+
     def _integers(self, I):
         """The kernels' integers (kernels.I*, into the context I): scheme flags and grid
         numbering."""
@@ -238,6 +255,7 @@ class TwoPhase:
         I[K.ISTX], I[K.ISTY] = g.order, g.order * g.gxm
         I[K.INOWN] = self.nown
         I[K.ILAYERS] = len(self.layers) if self.layered else 0
+        I[K.IWATER] = int(self._B.reshape(-1, NB)[:, 5:].any())
 
     def _reals(self):
         """The kernels' real data (kernels.R*, SI units)."""
@@ -269,16 +287,19 @@ class TwoPhase:
                 row[[K.LCS, K.LCL, K.LCQ]] = self._lumped(layer)
                 row[K.LGM] = layer.density * gy
                 row[K.LN] = layer.porosity
+                row[K.LCK] = layer.drag_coefficient / layer.porosity
                 row[K.LD:] = layer.elasticity().ravel()
         return R
 
     def _node_data(self):
         """Per owned node (kernels.NB values): the load's force for a load factor of 1 (N
-        per m), then 1 on the free and 0 on the fixed DOFs of v_s (x, y) and v_l (x, y)."""
+        per m), then 1 on the free and 0 on the fixed DOFs of v_s (x, y) and v_l (x, y),
+        then the water's force on the mixture and on the liquid (x, y each, N per m)."""
         B = np.empty((self.nown, NB))
         B[:, 0] = self.traction
         B[:, 1:3] = ~self.fixed_s
         B[:, 3:5] = ~self.fixed_l
+        B[:, 5:] = self.water
         return B.ravel()
 
     def _nodal_arrays(self):
@@ -290,11 +311,11 @@ class TwoPhase:
         are fetched once."""
         if self.serial:
             self._Gl = self._G = np.zeros(self.ng * self.nf)
-            self._O = self._Og = np.zeros(self.ng * NG)
+            self._O = self._Og = np.zeros(self.ng * self.ngf)
             self._pn = self._pg = np.zeros(self.ng if self.project else 0)
             return
         da = self.grid.da
-        self.da_f, self.da_g = da.duplicate(dof=self.nf), da.duplicate(dof=NG)
+        self.da_f, self.da_g = da.duplicate(dof=self.nf), da.duplicate(dof=self.ngf)
         self.loc_f, self.glob_f = self.da_f.createLocalVec(), self.da_f.createGlobalVec()
         self.loc_g, self.glob_g = self.da_g.createLocalVec(), self.da_g.createGlobalVec()
         self._Gl, self._G = self.loc_f.getArray(), self.glob_f.getArray()
@@ -355,9 +376,10 @@ class TwoPhase:
 
     @property
     def _locgT(self):
-        """The nodal results of the last step, field-major (NG, ghosted-local nodes): a_s,
-        a_l, v_s^{k+1}, v_l^{k+1}, x and y each (m/s2, m/s; tests read them)."""
-        return self._O.reshape(self.ng, NG).T
+        """The nodal results of the last step, field-major (NG or NGL, ghosted-local nodes):
+        a_s, a_l, v_s^{k+1}, v_l^{k+1} (and in layers the Darcy flux q), x and y each (m/s2,
+        m/s; tests read them)."""
+        return self._O.reshape(self.ng, self.ngf).T
 
     # -- one step --------------------------------------------------------------------------
     def step(self, dt: float, load_factor: float, damping: float, flip: float):

@@ -78,7 +78,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     wm, wt = ms + ml, mt
     ms, ml, mt = S * ms, S * ml, S * mt
     npnt, nen = N.shape
-    C = np.empty((npnt, nen, 12))
+    C = np.empty((npnt, nen, 13))
     C[..., 0] = w * ms[:, None]
     C[..., 1] = wl * ml[:, None]                # the liquid's weights throughout
     C[..., 2] = wl * mt[:, None]
@@ -93,8 +93,9 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     C[..., 10:12] = dNl * (pp * V)[:, None, None]
     C[..., 8:10] += (N * wm[:, None])[..., None] * gvec
     C[..., 10:12] += (Nl * wt[:, None])[..., None] * gvec
-    G = np.bincount((nodes[..., None] * 12 + np.arange(12)).ravel(), weights=C.ravel(),
-                    minlength=ng * 12).reshape(-1, 12)
+    C[..., 12] = wl * (drag / n * V)[:, None]
+    G = np.bincount((nodes[..., None] * 13 + np.arange(13)).ravel(), weights=C.ravel(),
+                    minlength=ng * 13).reshape(-1, 13)
     Ms, Ml, Mt, Q = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
 
     def inv(M):
@@ -136,8 +137,12 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
         vs -= dt * fast * (vm - vslow)
         vl -= dt * fast * (vm - vslow)
     Ls = np.einsum("pai,paj->pij", Hn[..., 4:6], dN)
-    # Relative motion in the liquid's basis: div v_s + n div(v_l - v_s).
-    div_w = np.einsum("pai,pai->p", Hn[..., 6:8] - Hn[..., 4:6], dNl)
+    # Relative motion in the liquid's basis: div v_s + n div(v_l - v_s); in layers n div_w
+    # is the divergence of the nodes' Darcy flux n_q (v_l - v_s), n_q = Q / sum w_l V drag / n.
+    flux = Hn[..., 6:8] - Hn[..., 4:6]
+    if len(soil.soils) > 1:
+        flux = flux * (Q * inv(G[:, 12]))[nodes][..., None] / n[:, None, None]
+    div_w = np.einsum("pai,pai->p", flux, dNl)
     eps = np.stack([Ls[:, 0, 0], Ls[:, 1, 1], Ls[:, 0, 1] + Ls[:, 1, 0]], axis=1)
     sig += dt * np.einsum("pij,pj->pi", D, eps)
     div_s = Ls[:, 0, 0] + Ls[:, 1, 1]
