@@ -288,7 +288,4 @@ def _no_reference(body: Body, loading: Loading) -> str:
     if bcs["left"] != "x" or bcs["right"] != "x" or "y" not in bcs["bottom"]:
         return ("the supports (-mpm_bc_*) are not those of a one-dimensional column "
                 "(rollers on both sides, the base fixed vertically)")
-    if loading.gravity > 0 and "bottom" in body.drained:
-        return ("a drained base under gravity holds the pore pressure at 0, not at the "
-                "hydrostatic pressure, so the excess has no closed form")
     return ""

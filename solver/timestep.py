@@ -23,6 +23,7 @@ from petsc4py import PETSc
 from . import assembly, shapes
 from .grid import Grid
 from .points import place
+from .soil import Ground
 
 # Dense stability analysis of the whole grid up to this many unknowns, else on a patch: the
 # largest of the paper's scenes (M2-Q8/Q9, M3-Q4: 1640) and no more. Its cost grows as the
@@ -86,16 +87,33 @@ def discrete_limit(comm, body, soil, scheme) -> tuple:
         small = _patch(body.element, cells, ESTIMATE_STATE)
         layers = soil.soils
         whole = tuple(cells) == tuple(body.cells)
-        # Layered ground: the whole grid with each point's material; a patch holds one
-        # layer, so every layer gets its patch and the smallest limit governs.
-        estimate = None if small == cells else min(
-            _limit_on(body, layer, scheme, small) for layer in layers)
+        # Layered ground: the whole grid with each point's material; on a patch, every
+        # layer gets its patch and so does every interface (the nodes on it mix both
+        # layers' masses, drag and flux porosity), and the smallest limit governs.
         if len(layers) == 1 or whole:
-            limit = _limit_on(body, soil, scheme, cells, estimate)
+            patches = (soil,)
         else:
-            limit = min(_limit_on(body, layer, scheme, cells, estimate) for layer in layers)
+            patches = tuple(layers) + _interfaces(soil, body, cells)
+        estimate = None if small == cells else min(
+            _limit_on(body, one, scheme, small) for one in patches)
+        limit = min(_limit_on(body, one, scheme, cells, estimate) for one in patches)
         limit *= viscous_factor(scheme.bulk_viscosity)
     return comm.tompi4py().bcast(limit, root=0), cells
+
+
+def _interfaces(ground, body, cells) -> tuple:
+    """Two-layer grounds (soil.Ground) for patches of ``cells`` cells of the body's size, one
+    for each interface of ``ground``: the layers above and below it, the interface in the
+    middle of the patch at the same place within its cell as in the body."""
+    h = body.size[1] / body.cells[1]
+    Hp = cells[1] * h
+    tops = body.size[1] - np.cumsum(ground.thickness)[:-1]      # interface heights (m)
+    out = []
+    for i, y in enumerate(tops):
+        frac = y / h - np.floor(y / h)
+        yi = min(max((cells[1] // 2 + frac) * h, 0.5 * h), Hp - 0.5 * h)
+        out.append(Ground((Hp - yi, yi), ground.soils[i:i + 2]))
+    return tuple(out)
 
 
 def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
