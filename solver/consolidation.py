@@ -207,6 +207,9 @@ def _set_up(p, comm, ctx) -> tuple:
     signals.stage("set-up: the time scheme and mass scaling")
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
     soil = ground.as_material()
+    refs = References.of(soil, loading, body)
+    if restart is not None:            # an end before the checkpoint: refused up front
+        checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report))
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)
@@ -235,7 +238,6 @@ def _set_up(p, comm, ctx) -> tuple:
     limits = _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
                        p.allow_unstable)
     signals.stage("set-up: the step counts")
-    refs = References.of(soil, loading, body)
     if not refs.available and not loading.self_weight:
         signals.stage("set-up: the static references")
         refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))

@@ -5,9 +5,20 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 
 from conftest import CASES, REPO, run_command
+
+QUIET = ["-mpm_progress", "0", "-mpm_figures", "0"]
+M1 = "consolidation-m1-q4"
+
+
+def _error_line(stderr):
+    """The one line of a refused command (asserting there is only that one)."""
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1, stderr
+    return lines[0]
 
 
 def _solver(args, cwd, **kw):
@@ -28,3 +39,23 @@ def test_command_line_wins_before_the_scene_file(tmp_path):
     with open(tmp_path / "mine" / "summary.json") as fh:
         summary = json.load(fh)
     assert len(summary["frequencies_hz"]["jacobi"]) == 2
+
+
+def test_restart_ending_before_its_checkpoint_is_refused(cli, tmp_path):
+    """A restart whose -mpm_Tv_end lies before the checkpoint's step (700 of M1-Q4's 1071
+    to T_v 0.02: T_v 0.0131) exits 2 naming the end and the checkpoint's T_v, and writes
+    nothing; the checkpoint's own folder is left as it was."""
+    first = tmp_path / "first"
+    assert cli(QUIET + ["-mpm_Tv_end", "0.02", "-mpm_checkpoint_every", "700"],
+               options_file=M1, out_dir=first).returncode == 0
+    before = sorted(os.listdir(first))
+    ckpt = first / "checkpoint.npz"
+    res = cli(["-mpm_restart", ckpt, "-mpm_Tv_end", "0.01"], out_dir=tmp_path / "again")
+    assert res.returncode == 2
+    line = _error_line(res.stderr)
+    assert line.startswith("solver: error: -mpm_Tv_end 0.01: before the state of "
+                           f"-mpm_restart {ckpt} (step 700,")
+    tv = float(re.search(r"T_v = ([0-9.e-]+)\)", line).group(1))
+    assert abs(tv - 0.02 * 700 / 1071) < 0.02 / 1071        # within a step of step 700
+    assert not (tmp_path / "again").exists()
+    assert sorted(os.listdir(first)) == before
