@@ -70,6 +70,7 @@ def _validate(p) -> tuple:
     if p.load_extent and not 0 <= p.load_extent[0] < p.load_extent[1] <= W:
         raise InputError(f"-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}: "
                          f"outside the top (0 <= x0 < x1 <= {W:g} m)")
+    Loading.from_options(p).check_extent(Body.from_options(p))
     if p.load != 0 and "y" in p.bc_top:
         # The support would carry the load: nothing would settle, and U_p = 1 would be read
         # as a finished consolidation.

@@ -8,7 +8,7 @@ import os
 import re
 import sys
 
-from conftest import CASES, REPO, run_command
+from conftest import CASES, REPO, check_ok, run_command
 
 QUIET = ["-mpm_progress", "0", "-mpm_figures", "0"]
 M1 = "consolidation-m1-q4"
@@ -59,3 +59,25 @@ def test_restart_ending_before_its_checkpoint_is_refused(cli, tmp_path):
     assert abs(tv - 0.02 * 700 / 1071) < 0.02 / 1071        # within a step of step 700
     assert not (tmp_path / "again").exists()
     assert sorted(os.listdir(first)) == before
+
+
+def test_footing_narrower_than_the_point_spacing(cli, tmp_path):
+    """A footing that covers no column of material points (points every 0.0625 m from
+    x = 0.03125 m on the strip scene) exits 2 in one line naming -mpm_load_extent and the
+    narrowest load that works, and writes nothing; that load runs, its settlement under
+    the load measured and set beside the static ends."""
+    res = cli(QUIET + ["-mpm_load_extent", "0,0.02"], options_file="consolidation-strip")
+    assert res.returncode == 2
+    assert _error_line(res.stderr) == (
+        "solver: error: -mpm_load_extent 0,0.02: covers no column of material points, where "
+        "the settlement under the load is measured; the narrowest load that works from "
+        "there is -mpm_load_extent 0,0.03125 (0.03125 m wide, to the points at x = "
+        "0.03125 m)")
+    assert not (tmp_path / "out").exists()
+    res = cli(QUIET + ["-mpm_load_extent", "0,0.03125", "-mpm_Tv_end", "0.001",
+                       "-mpm_stability_analysis", "0"], options_file="consolidation-strip")
+    summary = check_ok(res)
+    assert res.stderr == ""
+    ends = summary["static_references"]
+    assert 0 < ends["undrained_m"] < ends["final_m"]
+    assert ends["settlement_last_m"] > 0
