@@ -5,7 +5,7 @@ Exit codes:
 - 0 success;
 - 2 bad input: an option, a scene file, an output folder that cannot be written (nothing
   computed, nothing written);
-- 3 numerical failure (Jacobi or SLEPc not converged, a mass that is not positive definite,
+- 3 numerical failure (Jacobi, a KSP or an EPS not converged, a mass that is not positive definite,
   a blown-up run): the summary says what was computed and where it failed;
 - 4 stopped by SIGTERM/SIGINT at any point: one line naming the stage, the summary
   (``"completed": false``, the ``error`` with its ``stage``) once the output folder is

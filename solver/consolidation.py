@@ -25,7 +25,7 @@ from petsc4py import PETSc
 from . import (checkpoint, frequency, inertia, memory, output, provenance, reporting, scene,
                settlement, signals, static, timestep, workprecision)
 from .checkpoint import RunState
-from .errors import InputError, Interrupted, NumericalError, agree_code, entry
+from .errors import InputError, Interrupted, NotConverged, NumericalError, agree_code, entry
 from .failure import RunFailure
 from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
@@ -301,6 +301,8 @@ def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
         signals.stage("set-up: the fundamental frequency f1")
         try:
             f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
+        except NotConverged:
+            raise                    # a solver the options chose (-f1_eps_*) that failed
         except NumericalError as exc:
             # f1 only feeds the spring-mass criterion, which does not bound stability (see
             # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no

@@ -8,6 +8,8 @@ import os
 import re
 import sys
 
+import pytest
+
 from conftest import CASES, REPO, check_ok, run_command
 
 QUIET = ["-mpm_progress", "0", "-mpm_figures", "0"]
@@ -81,3 +83,67 @@ def test_footing_narrower_than_the_point_spacing(cli, tmp_path):
     ends = summary["static_references"]
     assert 0 < ends["undrained_m"] < ends["final_m"]
     assert ends["settlement_last_m"] > 0
+
+
+# -- every KSP and EPS checks that it converged (exit 3) ---------------------------------
+def test_static_solve_that_does_not_converge_exits_3(cli, tmp_path):
+    """The static ends of the strip footing by 5 iterations of Jacobi-preconditioned CG
+    (far from the solution): exit 3 naming the solve, its options and the reason, not a
+    settlement of a few per cent of the true one."""
+    res = cli(QUIET + ["-static_ksp_type", "cg", "-static_pc_type", "jacobi",
+                       "-static_ksp_max_it", "5", "-mpm_Tv_end", "0.001",
+                       "-mpm_stability_analysis", "0"], options_file="consolidation-strip")
+    assert res.returncode == 3
+    assert _error_line(res.stderr) == (
+        "solver: error: the static undrained settlement (options -static_ksp_*, "
+        "-static_pc_*): KSP cg did not converge (DIVERGED_MAX_IT after 5 iterations)")
+    assert "Settlement under the load" not in res.stdout
+
+
+@pytest.mark.parametrize("given, said", [
+    (["-eps_max_it", "1", "-eps_ncv", "6", "-eps_tol", "1e-16"],
+     "SLEPc's eigensolve (options -eps_*, -st_*): EPS krylovschur did not converge "
+     "(DIVERGED_ITS after 1 iterations)"),
+    (["-st_ksp_type", "cg", "-st_pc_type", "jacobi", "-st_ksp_max_it", "2"],
+     "SLEPc's eigensolve's linear solves (options -st_ksp_*, -st_pc_*): KSP cg did not "
+     "converge (DIVERGED_MAX_IT after 2 iterations)"),
+])
+def test_eigensolve_that_does_not_converge_exits_3(cli, given, said):
+    """SLEPc stopped at its iteration limit, or its shift-and-invert's linear solves at
+    theirs: exit 3 with the reason, the summary saying the run did not complete."""
+    res = cli(["-mpm_figures", "0", "-mpm_eigen_solver", "slepc", *given],
+              options_file="eigen-q4")
+    assert res.returncode == 3
+    assert _error_line(res.stderr).startswith(f"solver: error: {said}")
+    assert res.summary["completed"] is False and res.summary["error"]["exit_code"] == 3
+
+
+def test_f1_solve_that_does_not_converge_exits_3(cli):
+    """f1 by SLEPc with linear solves that stop short is the run's failure (exit 3), not
+    a dropped criterion: the options chose that solver."""
+    res = cli(QUIET + ["-mpm_eigen_solver", "slepc", "-f1_st_ksp_type", "cg",
+                       "-f1_st_pc_type", "jacobi", "-f1_st_ksp_max_it", "2",
+                       "-mpm_Tv_end", "0.01"], options_file=M1)
+    assert res.returncode == 3
+    assert _error_line(res.stderr) == (
+        "solver: error: SLEPc's eigensolve's linear solves (options -f1_st_ksp_*, "
+        "-f1_st_pc_*): KSP cg did not converge (DIVERGED_MAX_IT after 2 iterations)")
+
+
+def test_biot_solve_that_does_not_converge_raises():
+    """The Biot reference's steps by 2 iterations of unpreconditioned GMRES: NotConverged
+    (a NumericalError, exit 3 where a command runs it), not a wrong reference."""
+    from petsc4py import PETSc
+
+    from solver import biot, options
+    from solver.errors import NotConverged, NumericalError
+
+    with options.command_line(["test", "-biot_ksp_type", "gmres", "-biot_pc_type", "none",
+                               "-biot_ksp_max_it", "2"]):
+        with pytest.raises(NotConverged) as err:
+            biot.solve(PETSc.COMM_SELF, biot.Body(size=(0.1, 1.0)), [1.0], [[0.05, 0.5]],
+                       cells=(1, 4))
+    assert isinstance(err.value, NumericalError)
+    assert str(err.value) == ("biot: the step's solve (options -biot_ksp_*, -biot_pc_*): "
+                              "KSP gmres did not converge (DIVERGED_MAX_IT after 2 "
+                              "iterations)")
