@@ -111,10 +111,11 @@ def main(argv=None, comm=None) -> int:
     SIGTERM and SIGINT stop it at any point with one line and exit code 4
     (:mod:`solver.signals`), from the start, before PETSc runs, on.
     """
-    from . import signals
+    from . import clock, signals
     from .errors import Interrupted
 
-    with signals.watched():
+    # A process of its own (PETSc not yet started) counts its wall time from its own start.
+    with signals.watched(), clock.command(fresh="petsc4py.PETSc" not in sys.modules):
         signals.stage("start-up")
         try:
             return _main(list(sys.argv if argv is None else argv), comm)

@@ -22,8 +22,8 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (checkpoint, frequency, inertia, memory, output, provenance, reporting, scene,
-               settlement, signals, static, timestep, workprecision)
+from . import (checkpoint, clock, frequency, inertia, memory, output, provenance, reporting,
+               scene, settlement, signals, static, timestep, workprecision)
 from .checkpoint import RunState
 from .errors import InputError, Interrupted, NotConverged, NumericalError, agree_code, entry
 from .failure import RunFailure
@@ -117,6 +117,7 @@ def run(p, comm) -> int:
     The PETSc objects the run made are destroyed on the way out, after the failure
     handling (its checkpoint needs the points)."""
     ctx = RunFailure(comm)
+    ctx.clock = clock.Phases()
     try:
         return _handled(comm, ctx, lambda: _run(_set_up(p, comm, ctx), comm, ctx))
     finally:
@@ -174,13 +175,15 @@ def _run(setup, comm, ctx) -> int:
     ctx.cleanup = [lambda: np.seterr(**fp)]
     # While stepping a signal only marks itself: the loop stops after the step, where the
     # ranks agree and the points hold a whole state for the checkpoint.
+    ctx.clock.mark("set-up")
     with signals.deferred("stepping") as stop:
         ctx.phase = "stepping"
         pace = _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall)
+    ctx.clock.mark("stepping")
     np.seterr(**fp)
     signals.stage("reporting")
     ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
-    return _finish(plan, reports, state, summary, pace, comm, t_wall)
+    return _finish(plan, reports, state, summary, pace, comm, (t_wall, ctx.clock))
 
 
 def _set_up(p, comm, ctx) -> tuple:
@@ -512,9 +515,12 @@ def _progress(plan, state, k, now, t_steps, first, t_wall) -> str:
             f"{(now - t_steps) / (k - first + 1) * (nsteps - k):.0f} s left")
 
 
-def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
+def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
     """The reporting after the last step: the summary's results, the tables, the target
-    error's check; the output files and the summary (rank 0)."""
+    error's check; the output files and the summary (rank 0); the wall time of the run's
+    phases. ``clocks``: (the perf_counter of the set-up proper, the run's
+    :class:`clock.Phases`)."""
+    t_wall, phases = clocks
     records, summary_path = state.reports, plan.outputs.summary
     summary["steps"] = plan.schedule.nsteps
     summary["completed"] = True
@@ -552,10 +558,13 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
         files.update(settlement.write_files(plan.outputs, reports.surface, state.settlement,
                                             plan.refs, plan.schedule.Tv_end,
                                             reporting.title(plan), state.troughs))
+    phases.mark("reporting")
+    summary["wall"] = {f"{phase.replace('-', '')}_s": s
+                       for phase, s in phases.seconds().items()}
+    if comm.getRank() == 0:
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(output.results_line(plan.outputs.folder, files), comm=comm)
-    PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
-                    comm=comm)
+    PETSc.Sys.Print(f"{phases.line()}; summary {summary_path}", comm=comm)
     return 0
 
 
