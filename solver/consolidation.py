@@ -31,7 +31,7 @@ from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
 from .scene import Body, Loading
 from .scheme import Scheme
-from .soil import Ground
+from .soil import Ground, check_count
 from .twophase import TwoPhase, point_fields
 
 
@@ -85,6 +85,7 @@ def _validate(p) -> tuple:
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
     Ground.from_options(p)        # checks -mpm_layers and the per-layer values
+    check_count("K0", p.K0, p.layers)
     return p, notes
 
 

@@ -90,14 +90,15 @@ class Loading:
     """What drives consolidation: the surface pressure ``load`` q (Pa, downwards) on the
     top, reached linearly over ``ramp`` (s; 0: a step), and ``gravity`` (m/s2, down).
     ``geostatic``: the body starts at rest under gravity (hydrostatic pore pressure,
-    effective stress K0 times the vertical one sideways, ``K0`` NaN: nu / (1 - nu)), so
+    effective stress K0 times the vertical one sideways; ``K0`` one value or one per layer,
+    NaN: nu / (1 - nu)), so
     that only the load drives consolidation; else it starts unstressed (a fresh deposit)."""
 
     load: float = 10.0e3
     ramp: float = 0.0
     gravity: float = 0.0
     geostatic: bool = False
-    K0: float = math.nan
+    K0: object = math.nan   # a float, or a tuple: one per layer
     extent: tuple = ()      # (x0, x1) (m) of the loaded part of the top; (): all of it
 
     @classmethod
@@ -154,8 +155,8 @@ def geostatic_state(points, body, soil, loading) -> None:
     under gravity with the water table at the surface. It is in equilibrium with the step's
     body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides)."""
     g, layers = loading.gravity, soil.soils
-    K0 = np.array([s.nu / (1 - s.nu) if math.isnan(loading.K0) else loading.K0
-                   for s in layers])
+    given = loading.K0 if isinstance(loading.K0, tuple) else (loading.K0,) * len(layers)
+    K0 = np.array([s.nu / (1 - s.nu) if math.isnan(k) else k for s, k in zip(layers, given)])
     buoyant = np.array([(1 - s.porosity) * (s.rho_s - s.rho_l) * g for s in layers])
     thickness = np.asarray(getattr(soil, "thickness", (body.height,)), dtype=float)
     # The effective stress at each layer's top: the buoyant weight of the layers above.

@@ -8,6 +8,7 @@ import os
 import re
 import sys
 
+import numpy as np
 import pytest
 
 from conftest import CASES, REPO, check_ok, run_command
@@ -179,3 +180,66 @@ def test_wall_time_counts_every_phase_from_the_process_start(tmp_path):
     assert last == (f"Wall time {wall['total_s']:.1f} s: set-up {wall['setup_s']:.1f} s, "
                     f"stepping {wall['stepping_s']:.1f} s, reporting "
                     f"{wall['reporting_s']:.1f} s; summary {tmp_path / 'out' / 'summary.json'}")
+
+
+# -- per-layer and per-fluid values -------------------------------------------------------
+LAYERED = dict(layers="1,3", size="0.1,4", cells="1,20", E="40e6,5e6", nu="0.25,0.3",
+               rho_s="2650,2700", porosity="0.35,0.5", gravity=9.81,
+               initial_state="geostatic", load=5e4)
+
+
+@pytest.mark.parametrize("K0, want", [("0.5,0.6", (0.5, 0.6)), ("0.45", (0.45, 0.45)),
+                                      (None, (0.25 / 0.75, 0.3 / 0.7))])
+def test_geostatic_start_takes_K0_per_layer(K0, want):
+    """The geostatic start of a layered column sets sigma'_xx = K0 sigma'_yy with each
+    layer's K0: one per layer as given, one for all, or each layer's nu / (1 - nu)."""
+    from petsc4py import PETSc
+
+    from conftest import scene_options
+    from solver import scene, twophase
+    from solver.soil import Ground
+
+    p = scene_options(**LAYERED, **({"K0": K0} if K0 else {}))
+    ground = Ground.from_options(p)
+    body = scene.Body.from_options(p)
+    grid, points = scene.two_phase_body(PETSc.COMM_SELF, body, ground,
+                                        dict(twophase.POINT_FIELDS, layer=1))
+    try:
+        scene.geostatic_state(points, body, ground, scene.Loading.from_options(p))
+        with points.fields("stress", "layer", "x0") as (sig, layer, x0):
+            assert np.all(sig[:, 1] < 0)
+            assert set(layer.astype(int)) == {0, 1}
+            np.testing.assert_allclose(sig[:, 0] / sig[:, 1],
+                                       np.array(want)[layer.astype(int)], rtol=1e-14)
+            assert np.array_equal(layer.astype(int), (x0[:, 1] < 3.0).astype(int))
+    finally:
+        scene.destroy(points, grid)
+
+
+def test_K0_per_layer_runs_and_counts_its_layers(cli, tmp_path):
+    """-mpm_K0 with one value per layer runs the layered scene and is recorded; a count
+    that is not the layers' exits 2 in one line, as for the material options."""
+    short = QUIET + ["-mpm_Tv_end", "0.001", "-mpm_stability_analysis", "0"]
+    summary = check_ok(cli(short + ["-mpm_K0", "0.5,0.6"],
+                           options_file="consolidation-layered"))
+    assert summary["provenance"]["options"]["mpm"]["K0"] == [0.5, 0.6]
+    res = cli(short + ["-mpm_K0", "0.5,0.6,0.7"], options_file="consolidation-layered",
+              out_dir=tmp_path / "three")
+    assert res.returncode == 2
+    assert _error_line(res.stderr) == (
+        "solver: error: -mpm_K0 0.5,0.6,0.7: 3 values for 2 layer(s) of -mpm_layers; give "
+        "one value or one per layer")
+    assert not (tmp_path / "three").exists()
+
+
+@pytest.mark.parametrize("name", ["rho_l", "K_l", "mu_l"])
+def test_fluid_per_layer_is_one_line(cli, tmp_path, name):
+    """The pore water's properties take one value: a list exits 2 in one line saying the
+    water is one fluid (not 'could not convert string to float')."""
+    res = cli(QUIET + [f"-mpm_{name}", "1000,1100"], options_file="consolidation-layered")
+    assert res.returncode == 2
+    assert _error_line(res.stderr) == (
+        f"solver: error: -mpm_{name} 1000,1100: one value: the pore water is one fluid, the "
+        "same in every layer (per layer: -mpm_E, -mpm_nu, -mpm_rho_s, -mpm_porosity, "
+        "-mpm_k, -mpm_K0)")
+    assert not (tmp_path / "out").exists()
