@@ -243,3 +243,30 @@ def test_fluid_per_layer_is_one_line(cli, tmp_path, name):
         "same in every layer (per layer: -mpm_E, -mpm_nu, -mpm_rho_s, -mpm_porosity, "
         "-mpm_k, -mpm_K0)")
     assert not (tmp_path / "out").exists()
+
+
+# -- advice that fits the analysis ----------------------------------------------------------
+def test_memory_advice_fits_the_analysis(cli, tmp_path, monkeypatch):
+    """On a 16 GiB machine: a consolidation model too large is told to use fewer cells or
+    points (it has no eigen solver to change); an eigen model whose Jacobi matrices alone
+    do not fit is told SLEPc's need, under the limit; one too large for SLEPc as well is
+    not told to use it. Nothing is written."""
+    from solver import memory
+
+    monkeypatch.setattr(memory, "available", lambda: 16 * 2**30)
+    res = cli(QUIET + ["-mpm_cells", "2000,2000"], options_file=M1)
+    assert res.returncode == 2
+    line = _error_line(res.stderr)
+    assert line.startswith("solver: error: -mpm_cells 2000,2000: the model needs about ")
+    assert line.endswith("more than this machine's 16.0 GiB allows (fewer cells, or fewer "
+                         "points per cell (-mpm_ppc))")
+    res = cli(["-mpm_figures", "0", "-mpm_cells", "40,400"], options_file="eigen-q4")
+    assert res.returncode == 2
+    line = _error_line(res.stderr)
+    slepc = float(re.search(r"with -mpm_eigen_solver slepc it needs about ([0-9.]+) GiB",
+                            line).group(1))
+    assert slepc < 0.8 * 16 and line.endswith("; or fewer cells, or fewer points per cell "
+                                              "(-mpm_ppc))")
+    res = cli(["-mpm_figures", "0", "-mpm_cells", "2000,2000"], options_file="eigen-q4")
+    assert res.returncode == 2 and "slepc" not in _error_line(res.stderr)
+    assert not (tmp_path / "out").exists()
