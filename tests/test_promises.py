@@ -270,3 +270,63 @@ def test_memory_advice_fits_the_analysis(cli, tmp_path, monkeypatch):
     res = cli(["-mpm_figures", "0", "-mpm_cells", "2000,2000"], options_file="eigen-q4")
     assert res.returncode == 2 and "slepc" not in _error_line(res.stderr)
     assert not (tmp_path / "out").exists()
+
+
+# -- scripts/install waits for another apt ---------------------------------------------------
+FAKE_APT = """#!/bin/bash
+echo "$*" >> "$FAKE_LOG"
+if [ "$1" = update ]; then
+    n=$(cat "$FAKE_STATE" 2>/dev/null || echo 0)
+    echo $((n + 1)) > "$FAKE_STATE"
+    if [ "$n" -lt "$FAKE_FAILS" ]; then
+        echo "E: Could not get lock /var/lib/apt/lists/lock. It is held by process 1 (apt-get)" >&2
+        exit 100
+    fi
+fi
+"""
+
+
+def _install(tmp_path, fails, wait=None):
+    """scripts/install in a copy of its folder, with apt-get, sudo and ln stand-ins on PATH
+    (apt-get update failing on its lock ``fails`` times) and a .venv Python that does
+    nothing: (exit code, stderr, the apt-get calls)."""
+    import shutil
+
+    root = tmp_path / "repo"
+    (root / "scripts").mkdir(parents=True)
+    shutil.copy(REPO / "scripts" / "install", root / "scripts" / "install")
+    fake = tmp_path / "bin"
+    fake.mkdir()
+    for name, text in {"apt-get": FAKE_APT, "sudo": '#!/bin/sh\nexec "$@"\n',
+                       "ln": "#!/bin/sh\nexit 0\n"}.items():
+        (fake / name).write_text(text)
+        (fake / name).chmod(0o755)
+    (root / ".venv" / "bin").mkdir(parents=True)
+    (root / ".venv" / "bin" / "python").write_text("#!/bin/sh\nexit 0\n")
+    (root / ".venv" / "bin" / "python").chmod(0o755)
+    log = tmp_path / "apt.log"
+    env = {"PATH": f"{fake}:{os.environ['PATH']}", "FAKE_LOG": str(log),
+           "FAKE_STATE": str(tmp_path / "state"), "FAKE_FAILS": str(fails)}
+    if wait is not None:
+        env["MPM_GEO_APT_WAIT"] = str(wait)
+    code, _, err = run_command(["bash", root / "scripts" / "install"], cwd=root, env=env)
+    return code, err, log.read_text().splitlines() if log.exists() else []
+
+
+def test_install_waits_for_the_package_lock(tmp_path):
+    """apt-get update is tried again while another process holds the lists' lock (one line
+    says it waits), and apt-get install waits for dpkg's lock by itself."""
+    code, err, calls = _install(tmp_path, fails=1)
+    assert code == 0, err
+    assert calls[:2] == ["update -qq", "update -qq"]
+    assert calls[2].startswith("install -o DPkg::Lock::Timeout=600 -y -qq ")
+    assert err.count("waiting for it (up to 600 s, MPM_GEO_APT_WAIT)") == 1
+
+
+def test_install_stops_when_the_lock_stays(tmp_path):
+    """With no time to wait (MPM_GEO_APT_WAIT=0) a held lock stops the install with apt's
+    own message, before anything is installed."""
+    code, err, calls = _install(tmp_path, fails=5, wait=0)
+    assert code != 0
+    assert "Could not get lock /var/lib/apt/lists/lock" in err
+    assert calls == ["update -qq"]
