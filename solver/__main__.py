@@ -111,6 +111,12 @@ def main(argv=None, comm=None) -> int:
     SIGTERM and SIGINT stop it at any point with one line and exit code 4
     (:mod:`solver.signals`), from the start, before PETSc runs, on.
     """
+    if "petsc4py.PETSc" not in sys.modules:
+        from .launch import missing
+
+        problem = missing()       # a Python without PETSc (a pyenv's): one line, not a trace
+        if problem:
+            return _fail(problem, 2, _rank())
     from . import clock, signals
     from .errors import Interrupted
 

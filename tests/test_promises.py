@@ -330,3 +330,20 @@ def test_install_stops_when_the_lock_stays(tmp_path):
     assert code != 0
     assert "Could not get lock /var/lib/apt/lists/lock" in err
     assert calls == ["update -qq"]
+
+
+# -- a Python without PETSc ------------------------------------------------------------------
+def test_python_without_petsc_says_how_to_activate_the_venv(tmp_path):
+    """``python3 -m solver`` under a Python that cannot import petsc4py (here the same
+    interpreter without its site-packages, -S, as a pyenv's python3 first on PATH) exits 2
+    with one line saying how to activate .venv, not a traceback; nothing is written."""
+    code, out, err = run_command([sys.executable, "-S", "-m", "solver", "-options_file",
+                                  CASES / "eigen-q4.opts", "-mpm_output", tmp_path / "out"])
+    assert code == 2 and out == ""
+    venv = REPO / ".venv" / "bin"
+    where = (f"activate the repository's environment (. {venv}/activate), or run "
+             f"{venv}/python -m solver" if os.access(venv / "python", os.X_OK) else
+             f"there is no {venv}/python: bash {REPO}/scripts/install creates it")
+    assert _error_line(err) == (f"solver: error: petsc4py cannot be imported by "
+                                f"{sys.executable}: {where}")
+    assert not (tmp_path / "out").exists()
