@@ -22,16 +22,16 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (checkpoint, frequency, inertia, memory, output, provenance, reporting, scene,
-               settlement, signals, static, timestep, workprecision)
+from . import (checkpoint, clock, frequency, inertia, memory, output, provenance, reporting,
+               scene, settlement, signals, static, timestep, workprecision)
 from .checkpoint import RunState
-from .errors import InputError, Interrupted, NumericalError, agree_code, entry
+from .errors import InputError, Interrupted, NotConverged, NumericalError, agree_code, entry
 from .failure import RunFailure
 from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
 from .scene import Body, Loading
 from .scheme import Scheme
-from .soil import Ground
+from .soil import Ground, check_count
 from .twophase import TwoPhase, point_fields
 
 
@@ -70,6 +70,7 @@ def _validate(p) -> tuple:
     if p.load_extent and not 0 <= p.load_extent[0] < p.load_extent[1] <= W:
         raise InputError(f"-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}: "
                          f"outside the top (0 <= x0 < x1 <= {W:g} m)")
+    Loading.from_options(p).check_extent(Body.from_options(p))
     if p.load != 0 and "y" in p.bc_top:
         # The support would carry the load: nothing would settle, and U_p = 1 would be read
         # as a finished consolidation.
@@ -84,6 +85,7 @@ def _validate(p) -> tuple:
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
     Ground.from_options(p)        # checks -mpm_layers and the per-layer values
+    check_count("K0", p.K0, p.layers)
     return p, notes
 
 
@@ -116,6 +118,7 @@ def run(p, comm) -> int:
     The PETSc objects the run made are destroyed on the way out, after the failure
     handling (its checkpoint needs the points)."""
     ctx = RunFailure(comm)
+    ctx.clock = clock.Phases()
     try:
         return _handled(comm, ctx, lambda: _run(_set_up(p, comm, ctx), comm, ctx))
     finally:
@@ -173,13 +176,15 @@ def _run(setup, comm, ctx) -> int:
     ctx.cleanup = [lambda: np.seterr(**fp)]
     # While stepping a signal only marks itself: the loop stops after the step, where the
     # ranks agree and the points hold a whole state for the checkpoint.
+    ctx.clock.mark("set-up")
     with signals.deferred("stepping") as stop:
         ctx.phase = "stepping"
         pace = _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall)
+    ctx.clock.mark("stepping")
     np.seterr(**fp)
     signals.stage("reporting")
     ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
-    return _finish(plan, reports, state, summary, pace, comm, t_wall)
+    return _finish(plan, reports, state, summary, pace, comm, (t_wall, ctx.clock))
 
 
 def _set_up(p, comm, ctx) -> tuple:
@@ -207,6 +212,9 @@ def _set_up(p, comm, ctx) -> tuple:
     signals.stage("set-up: the time scheme and mass scaling")
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
     soil = ground.as_material()
+    refs = References.of(soil, loading, body)
+    if restart is not None:            # an end before the checkpoint: refused up front
+        checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report))
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)
@@ -235,7 +243,6 @@ def _set_up(p, comm, ctx) -> tuple:
     limits = _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
                        p.allow_unstable)
     signals.stage("set-up: the step counts")
-    refs = References.of(soil, loading, body)
     if not refs.available and not loading.self_weight:
         signals.stage("set-up: the static references")
         refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))
@@ -298,6 +305,8 @@ def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
         signals.stage("set-up: the fundamental frequency f1")
         try:
             f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
+        except NotConverged:
+            raise                    # a solver the options chose (-f1_eps_*) that failed
         except NumericalError as exc:
             # f1 only feeds the spring-mass criterion, which does not bound stability (see
             # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
@@ -507,9 +516,12 @@ def _progress(plan, state, k, now, t_steps, first, t_wall) -> str:
             f"{(now - t_steps) / (k - first + 1) * (nsteps - k):.0f} s left")
 
 
-def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
+def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
     """The reporting after the last step: the summary's results, the tables, the target
-    error's check; the output files and the summary (rank 0)."""
+    error's check; the output files and the summary (rank 0); the wall time of the run's
+    phases. ``clocks``: (the perf_counter of the set-up proper, the run's
+    :class:`clock.Phases`)."""
+    t_wall, phases = clocks
     records, summary_path = state.reports, plan.outputs.summary
     summary["steps"] = plan.schedule.nsteps
     summary["completed"] = True
@@ -547,10 +559,13 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
         files.update(settlement.write_files(plan.outputs, reports.surface, state.settlement,
                                             plan.refs, plan.schedule.Tv_end,
                                             reporting.title(plan), state.troughs))
+    phases.mark("reporting")
+    summary["wall"] = {f"{phase.replace('-', '')}_s": s
+                       for phase, s in phases.seconds().items()}
+    if comm.getRank() == 0:
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(output.results_line(plan.outputs.folder, files), comm=comm)
-    PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
-                    comm=comm)
+    PETSc.Sys.Print(f"{phases.line()}; summary {summary_path}", comm=comm)
     return 0
 
 

@@ -118,7 +118,8 @@ SPEC = [
     Option("nu", "float_or_floats", 0.0, "Poisson's ratio, per layer", check=_poisson),
     Option("rho_s", "float_or_floats", 2700.0, "solid grain density (kg/m3), per layer",
            check=_positive),
-    Option("rho_l", "float", 1000.0, "liquid density (kg/m3)", check=_positive),
+    Option("rho_l", "float", 1000.0, "liquid density (kg/m3), one for every layer",
+           check=_positive),
     Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=_open_unit),
     Option("bc_left", "str", "x", "fixed displacement components on x = 0", choices=BC_CHOICES),
     Option("bc_right", "str", "x", "fixed displacement components on x = W", choices=BC_CHOICES),
@@ -146,9 +147,9 @@ SPEC = [
            "under its own weight) or geostatic (hydrostatic pore pressure and K0 effective "
            "stress, at rest under gravity: a load drives the excess it drives without "
            "gravity)", (CONSOLIDATION,), choices=("deposited", "geostatic")),
-    Option("K0", "float", float("nan"), "earth pressure coefficient at rest sigma'_h / "
-           "sigma'_v of the geostatic state (default nu / (1 - nu))", (CONSOLIDATION,),
-           _nonnegative),
+    Option("K0", "float_or_floats", float("nan"), "earth pressure coefficient at rest "
+           "sigma'_h / sigma'_v of the geostatic state, per layer (default: each layer's "
+           "nu / (1 - nu))", (CONSOLIDATION,), _nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
            (CONSOLIDATION,), _nonnegative),
     Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
@@ -246,6 +247,11 @@ SPEC = [
 ]
 
 _BY_NAME = {o.name: o for o in SPEC}
+# Why a value that is not per layer is one: the pore fluid is the same in every layer.
+_FLUID = ("one value: the pore water is one fluid, the same in every layer (per layer: "
+          + ", ".join(f"-{PREFIX}{o.name}" for o in SPEC if o.kind == "float_or_floats")
+          + ")")
+ONE_VALUE = {"rho_l": _FLUID, "K_l": _FLUID, "mu_l": _FLUID}
 # Besides the options, what :func:`read` found out about where they came from.
 EXTRA_FIELDS = ("given", "from_file", "notes")
 
@@ -392,6 +398,9 @@ def _value(opt: Option, text):
         raise InputError(f"-{PREFIX}{opt.name}: '{text}' is not a boolean")
     if text.strip() == "":
         raise InputError(f"-{PREFIX}{opt.name}: needs a value")
+    if opt.kind in ("float", "int") and "," in text:
+        raise InputError(f"-{PREFIX}{opt.name} {text.strip()}: "
+                         + ONE_VALUE.get(opt.name, "takes one value, not a list"))
     try:
         value = _parse(opt, text)
     except ValueError as exc:
