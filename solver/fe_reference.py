@@ -284,8 +284,9 @@ def solve(comm, soil, body, loading, schedule, probes_: Probes, time_factor,
     if isinstance(result, str):
         PETSc.Sys.Print(f"No FE reference: {result}", comm=comm)
         return None, result
-    PETSc.Sys.Print(f"FE reference: the same scene by quasi-static finite elements "
-                    f"({result.describe()})", comm=comm)
+    PETSc.Sys.Print(f"FE reference: this scene by quasi-static finite elements "
+                    f"({result.describe()}), set against the run at its report times",
+                    comm=comm)
     return result, ""
 
 

@@ -305,12 +305,10 @@ def no_reference(body: Body, loading: Loading) -> str:
     if loading.partial(body.size[0]):
         return ("a load over part of the top (-mpm_load_extent "
                 + ",".join(f"{x:g}" for x in loading.extent) + "), the consolidation is "
-                "two-dimensional; the settlement under the load is compared with static "
-                "solutions of its ends")
+                "two-dimensional")
     if set(body.drained) & {"left", "right"}:
         return ("drained through a side (-mpm_drained " + ",".join(body.drained) + "), the "
-                "consolidation is two-dimensional; solver.biot computes its reference "
-                "(docs/method.md)")
+                "consolidation is two-dimensional")
     if bcs["left"] != "x" or bcs["right"] != "x" or "y" not in bcs["bottom"]:
         return ("the supports (-mpm_bc_*) are not those of a one-dimensional column "
                 "(rollers on both sides, the base fixed vertically)")

@@ -124,7 +124,7 @@ class Surface:
                                   & (x0[:, 0] <= (cell + 1) * self.hx))
             ys = np.vander((x0[rows, 1] - self.H) / self.h, n, increasing=True)
             xs = np.vander((x0[rows, 0] - self.axis) / self.hx, n, increasing=True)
-            fits.append((rows, (ys[:, :, None] * xs[:, None, :]).reshape(len(rows), -1)))
+            fits.append((rows, (ys[:, :, None] * xs[:, None, :]).reshape(len(rows), n * n)))
         # The hydrostatic part of the mean pore pressure: rho_l g sum V (H - y0) / sum V.
         sums = np.concatenate([(B.T @ B).ravel() for _, B in fits]
                               + [[float(np.sum(V)), float(V @ (self.H - x0[:, 1]))]])
@@ -241,6 +241,8 @@ class Surface:
 def history(rows) -> np.ndarray:
     """The settlement history's rows (t, Tv, s, mean p[, s at the axis]) as an array (n,
     4 or 5); a row without the axis's (a checkpoint from before it was measured) has NaN."""
+    if len(rows) == 0:
+        return np.zeros((0, 4))
     try:
         return np.array(rows, dtype=float).reshape(len(rows), -1)
     except ValueError:      # rows of both lengths
