@@ -380,7 +380,8 @@ def summary(fe, why: str, rows=()) -> dict:
         return {"available": False, "why": why}
     pr = fe.probes
     out = {"available": True, "solver": "solver/biot.py", "element": "q9/q4",
-           "cells": list(fe.cells), "steps": fe.steps, "factorizations": fe.factorizations,
+           "cells": list(fe.cells), "steps_per_doubling": STEPS, "steps": fe.steps,
+           "factorizations": fe.factorizations,
            "wall_seconds": fe.seconds, "monitor_m": list(pr.monitor), "axis_x_m": pr.axis,
            "column_x_m": pr.column,
            **{name: {f"settlement_{k}_m": e[k] for k in ("axis", "mean")}

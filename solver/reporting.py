@@ -125,7 +125,8 @@ def _nearest(values, wanted, mpi, scale):
     ``scale`` (m) sets the tolerance of a tie (collective)."""
     from mpi4py import MPI
 
-    near = values[np.argmin(np.abs(values - wanted))] if values.size else np.inf
+    gap = np.abs(values - wanted)
+    near = values[gap <= gap.min() + 1e-12 * scale].max() if values.size else np.inf
     dist = mpi.allreduce(abs(near - wanted), op=MPI.MIN)
     cand = near if abs(abs(near - wanted) - dist) < 1e-12 * scale else -np.inf
     return mpi.allreduce(cand, op=MPI.MAX)
@@ -374,7 +375,8 @@ def _axis_figure(plt, plan, profiles):
     return figures.axis_profiles(
         plt, snapshots, lines, refs.H,
         f"Pore pressure under the axis (x = {pr.column:.4g} m), {title(plan)}"
-        + (f"; FE {fe.cells[0]} x {fe.cells[1]}" if fe is not None else ""), plan.soil)
+        + (f"\nFE reference: Q9/Q4 {fe.cells[0]} x {fe.cells[1]} cells" if fe is not None
+           else ""), plan.soil)
 
 
 def _monitor_figure(plt, plan, hist):
