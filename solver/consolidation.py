@@ -22,8 +22,9 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (checkpoint, clock, frequency, inertia, memory, output, provenance, reporting,
-               scene, settlement, signals, static, timestep, workprecision)
+from . import (checkpoint, clock, fe_reference, frequency, inertia, memory, output,
+               plan as plans, provenance, reporting, scene, settlement, signals, static,
+               timestep, workprecision)
 from .checkpoint import RunState
 from .errors import InputError, Interrupted, NotConverged, NumericalError, agree_code, entry
 from .failure import RunFailure
@@ -43,6 +44,11 @@ def _validate(p) -> tuple:
     if not math.isnan(p.monitor_height) and not 0 <= p.monitor_height <= H:
         raise InputError(f"-mpm_monitor_height {p.monitor_height}: outside the body "
                          f"(0 to {H} m)")
+    if p.monitor and not math.isnan(p.monitor_height):
+        raise InputError("-mpm_monitor_height: -mpm_monitor x,y places the monitor (give one)")
+    if p.monitor and not (0 <= p.monitor[0] <= p.size[0] and 0 <= p.monitor[1] <= H):
+        raise InputError(f"-mpm_monitor {p.monitor[0]:g},{p.monitor[1]:g}: outside the body "
+                         f"(0 <= x <= {p.size[0]:g}, 0 <= y <= {H:g} m)")
     late = [t for t in p.Tv_report if t > p.Tv_end * (1 + 1e-12)]
     if late and "Tv_report" in p.given and "Tv_report" not in p.from_file:
         raise InputError(f"-mpm_Tv_report {late[0]}: after -mpm_Tv_end {p.Tv_end}")
@@ -80,6 +86,7 @@ def _validate(p) -> tuple:
         raise InputError(f"-mpm_drained {','.join(p.drained)}: none means no drained side; "
                          "give it alone")
     _check_lateral_drainage(p.element, p.drained)
+    fe_reference.check_cells(p.fe_cells, p.layers, H)
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
@@ -228,7 +235,8 @@ def _set_up(p, comm, ctx) -> tuple:
         scheme = scheme.with_mass_scaling(state.mass_scaling)
     else:
         state = RunState(mass_scaling=scheme.mass_scaling)
-    height = _monitor_height(points, body.height, p.monitor_height, comm.tompi4py())
+    monitor = _place_monitor(points, body, loading, p.monitor, p.monitor_height,
+                             comm.tompi4py())
     if restart is not None:
         checkpoint.scatter(points, grid, restart[0], restart[1],
                            "x0" if scheme.kinematics == "small" else "x")
@@ -249,14 +257,17 @@ def _set_up(p, comm, ctx) -> tuple:
     schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
                         p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
                         p.checkpoint_seconds, p.progress)
+    signals.stage("set-up: the FE reference")
+    refs, probes = fe_reference.attach(comm, refs, (soil, body, loading), points, schedule,
+                                       monitor, p.fe_reference, p.fe_cells)
     plan = Plan(soil=soil, body=body, loading=loading, scheme=scheme, schedule=schedule,
                 refs=refs, limits=limits,
                 outputs=Outputs(p.output, summary_path, p.figures, p.figure_format),
-                monitor_height=height, run={"id": run_id, "options": recorded},
+                monitor_height=monitor[1], run={"id": run_id, "options": recorded},
                 signature=signature, scene=workprecision.scene_signature(p),
                 provenance=options, restart=p.restart,
                 resumed_id=restart[3] if restart else None, goal=goal,
-                target_error=p.target_error)
+                target_error=p.target_error, monitor_x=monitor[0], probes=probes)
     _print_plan(comm, plan, points.n_global)
     return plan, grid, points, state, t_wall
 
@@ -275,24 +286,18 @@ def _target(p, comm) -> tuple:
                "why": lines}
 
 
-def _monitor_height(points, H, wanted, mpi) -> float:
-    """Mark the monitor points (the row nearest ``wanted`` (m), or with NaN the highest
-    below mid-height of a body of height H) in the field ``monitor``; returns their
-    height y0 (collective)."""
-    from mpi4py import MPI
-
-    with points.fields("x0", "monitor") as (x0, mon):
-        y0 = x0[:, 1]
-        if math.isnan(wanted):
-            below = y0[y0 < H / 2 - 1e-12 * H]
-            target = mpi.allreduce(float(below.max()) if below.size else -np.inf, op=MPI.MAX)
-        else:
-            near = y0[np.argmin(np.abs(y0 - wanted))] if y0.size else np.inf
-            dist = mpi.allreduce(abs(near - wanted), op=MPI.MIN)
-            cand = near if abs(abs(near - wanted) - dist) < 1e-12 * H else -np.inf
-            target = mpi.allreduce(cand, op=MPI.MAX)
-        mon[:] = np.abs(y0 - target) < 1e-9 * H
-    return float(target)
+def _place_monitor(points, body, loading, at, height, mpi) -> tuple:
+    """Mark the monitor points (:func:`reporting.place_monitor`) at ``at`` (x, y) (m,
+    -mpm_monitor) or at the ``height`` (m, -mpm_monitor_height); by default a column's row
+    of points highest below mid-height, and in a scene without a closed form the point of
+    that row nearest its axis under the load (:func:`plan.axis`). Returns their (x or
+    NaN, y) (m)."""
+    wanted_y, wanted_x = height, math.nan
+    if at:
+        wanted_x, wanted_y = at
+    elif plans.no_reference(body, loading):
+        wanted_x = plans.axis(body, loading)
+    return reporting.place_monitor(points, body.height, wanted_y, wanted_x, mpi)
 
 
 def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
@@ -394,7 +399,7 @@ def _print_plan(comm, plan, n_points):
                     f"{body.cells[1]} cells, {n_points} material points, {comm.getSize()} "
                     f"rank(s); c_v = {refs.c_v:.4g} m2/s, T_v = {schedule.Tv_end} at t = "
                     f"{t_end:.4g} s: {schedule.nsteps} steps of {schedule.dt:.4g} s; monitor "
-                    f"at y = {plan.monitor_height:.5g} m\n"
+                    f"{reporting.monitor_words(plan)}\n"
                     f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
                     f"liquid basis {scheme.liquid_basis}, pressure projection "
                     f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
@@ -527,6 +532,7 @@ def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
     summary["completed"] = True
     summary["wall_seconds"] = time.perf_counter() - t_wall
     summary["monitor"] = {"height": plan.monitor_height,
+                          **({} if math.isnan(plan.monitor_x) else {"x": plan.monitor_x}),
                           **{key: [r[key] for r in records] for key in (
                               "Tv", "p_over_q", "terzaghi", "error_pct", "consistent",
                               "error_consistent_pct") if not records or key in records[0]}}
@@ -535,11 +541,14 @@ def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
                                  "terzaghi": [r["l2_terzaghi"] for r in records],
                                  "consistent": [r["l2_consistent"] for r in records]}
     summary["consolidation_degree"] = reports.surface.summary(state.degree)
-    reporting.print_reports(comm, records, plan.refs)
+    reporting.print_reports(comm, records, plan.refs, reporting.monitor_words(plan))
+    fe = reporting.print_fe(comm, plan, state)
+    if fe is not None:
+        summary["fe_reference"] = fe
     settlement.print_degree(comm, state.degree, reports.surface)
     if plan.refs.static:
-        summary["static_references"] = settlement.print_ends(comm, state.degree,
-                                                             plan.refs.static)
+        summary["static_references"] = settlement.print_ends(
+            comm, state.degree, plan.refs.static, reports.surface.extent)
     if plan.goal is not None:
         _target_verdict(plan, summary, pace, comm)
     last = reports.series.last()          # rank 0's: it writes the series

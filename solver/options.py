@@ -186,6 +186,19 @@ SPEC = [
            (CONSOLIDATION,), _all_positive),
     Option("monitor_height", "float", float("nan"), "height of the monitor point (m); "
            "default: the highest material point below mid-height", (CONSOLIDATION,)),
+    Option("monitor", "floats", (), "the monitor point x,y (m): the material point nearest "
+           "it (default: a column's monitor is the mean of the row of points at "
+           "-mpm_monitor_height; a scene without a closed form's the point at that height "
+           "nearest its axis under the load: the rollers' side a load on part of the top "
+           "starts from, else the load's middle)", (CONSOLIDATION,), length=2),
+    Option("fe_reference", "bool", True, "solve a scene without a closed form again by "
+           "finite elements (solver/biot.py: the same body, quasi-static) and report the "
+           "settlement under the load and the monitor's pore pressure against it, with "
+           "errors (0: not)", (CONSOLIDATION,)),
+    Option("fe_cells", "ints", (), "the FE reference's Q9/Q4 cells NX,NY (default: square "
+           "cells, 32 across the shorter side or fewer to keep about 2048, the layer "
+           "interfaces on cell boundaries)", (CONSOLIDATION,), length=2,
+           check=_all_at_least_one),
     Option("output_every", "int", 0, "write point fields every N steps and at the report "
            "times (0: at the report times only)", (CONSOLIDATION,), _nonnegative),
     Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "

@@ -61,7 +61,7 @@ def test_column_drained_at_the_base(cli, tmp_path):
 # a 15 kPa load on the top (Q4 cells; Q8 and Q9 are refused there, see below).
 BLOCK = ["-mpm_analysis", "consolidation", "-mpm_size", "1.2,1.2", "-mpm_E", "8e6",
          "-mpm_nu", "0.2", "-mpm_porosity", "0.4", "-mpm_k", "2e-4", "-mpm_load", "15e3",
-         "-mpm_progress", "0", "-mpm_figures", "0"]
+         "-mpm_progress", "0", "-mpm_figures", "0", "-mpm_fe_reference", "0"]
 SHARP = [("column-bottom", ["-options_file", "cases/consolidation-m1-q4.opts",
                             "-mpm_drained", "bottom", "-mpm_cells", "1,20"]),
          ("block-sides", [*BLOCK, "-mpm_cells", "8,8", "-mpm_drained", "left,right"]),

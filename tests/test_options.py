@@ -228,7 +228,7 @@ def test_every_consolidation_option_rejected_for_eigen():
         if opt.default != opt.default:      # NaN default (automatic): give a valid value
             value = "1"
         if value == "":                     # empty default: a file name, or a list
-            value = {"floats": "0,0.05"}.get(opt.kind, "some-file")
+            value = {"floats": "0,0.05", "ints": "4,2"}.get(opt.kind, "some-file")
         with pytest.raises(InputError, match=f"-mpm_{opt.name}"):
             read({opt.name: value})
         # ... and accepted with -mpm_analysis consolidation.
