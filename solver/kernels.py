@@ -23,7 +23,8 @@ Arguments, all kept between steps (no per-step temporaries):
 - the nodal arrays are node-major, ``node * nfields + field``, as a DMDA Vec with ``dof =
   nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
   velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected pressure
-  increments (1 field) and the static data (NB = 5 per owned node: the load's nodal force,
+  increments (1 field; 2 with the corner projection: sum N_Q4 V dp and its own lumped
+  mass sum N_Q4 V) and the static data (NB = 5 per owned node: the load's nodal force,
   then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y); a v_l DOF with 0 is
   normal to an impermeable side and tied to v_s, see :func:`nodal_update`).
 
@@ -64,7 +65,8 @@ AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(12, 28, 2)
 (INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
  IBLEND,    # 1: the liquid in the blended basis N_hat
  IHRZ,      # 1: HRZ lumping weights, 0: row sums (w = N)
- IPROJ,     # 1: pore-pressure increments projected through the nodes
+ IPROJ,     # pore-pressure increments: 0 per point, 1 projected through the nodes (PNODAL),
+            # 2 through the corner nodes' bilinear field (PCORNER)
  IIMPL,     # 1: implicit drag
  ICMX, ICMY,    # largest cell index per direction (cells - 1)
  ISTX, ISTY,    # ghosted-local node offset of one cell step in x and in y
@@ -72,6 +74,7 @@ AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(12, 28, 2)
  ILAYERS,       # layers of the per-point material table (0: one material, the R* slots)
  ) = range(28, 39)
 NC = 39
+PNODAL, PCORNER = 1, 2   # C[IPROJ] of the nodal and the corner projection
 
 # R: reals (SI units).
 (RHX, RHY,     # cell size (m)
@@ -531,7 +534,9 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
         for i in range(3):
             sig[k, i] += D[3 * i] * e0 + D[3 * i + 1] * e1 + D[3 * i + 2] * e2
         dp = (divs * cdiv + dvl * n_) * kdp
-        if project:
+        if project == PCORNER:
+            _to_corners(off, offs, pacc, base, xn, yn, V[k], dp)
+        elif project:
             wV = V[k]
             for a in range(nen):
                 pacc[base + offs[a]] += S[rw, a] * wV * dp
@@ -593,10 +598,35 @@ def _damp_fast(vs, vl, vslow, k, fs, fl, slow, fast):
 
 
 @_jit
+def _corners(off):
+    """The cell type's corner nodes (local numbers, Q4 order), a tuple."""
+    nen = len(off)
+    return _CORNERS4 if nen == 4 else (_CORNERS8 if nen == 8 else _CORNERS9)
+
+
+@_jit
+def _to_corners(off, offs, pacc, base, xn, yn, V, dp):
+    """The corner projection's sums of one point at natural (xn, yn), volume V (m3) and
+    increment dp (Pa): N_Q4 V dp and N_Q4 V into the two fields of its cell's corners."""
+    n4 = carray(_on_stack(shapes.q4(xn, yn, 1.0, 1.0)[0]), 4)
+    c = carray(_on_stack(_corners(off)), 4)
+    for k in range(4):
+        i = 2 * (base + offs[c[k]])
+        pacc[i] += n4[k] * V * dp
+        pacc[i + 1] += n4[k] * V
+
+
+@_jit
 def project_nodes(C):
     """Lumped projection at the owned nodes: pn = sum w V dp / S (0 where S = sum w V <=
-    0), S the first of the sums per node."""
+    0), S the first of the sums per node; corner projection: pn = sum N_Q4 V dp / sum N_Q4
+    V, the pair of fields per node (0 off the corners)."""
     G, pn, nf = _array(C, AGO), _array(C, APO), C[INF]
+    if C[IPROJ] == PCORNER:
+        for k in range(pn.shape[0] // 2):
+            S = pn[2 * k + 1]
+            pn[2 * k] *= 1.0 / S if S > 0.0 else 0.0
+        return
     for k in range(pn.shape[0]):
         S = G[k * nf]
         pn[k] *= 1.0 / S if S > 0.0 else 0.0
@@ -605,17 +635,25 @@ def project_nodes(C):
 @_jit
 def project_back(off, C):
     """Pore pressures p -= sum N pn (ghosted-local nodes) at the points' reference positions
-    (x0, or the new x)."""
+    (x0, or the new x); the corner projection: p -= sum N_Q4 pn over the cell's corners."""
     R, pn = _array(C, AR), _array(C, APL)
     xr, pp = _points(C, PXREF, 2), _points1(C, PP)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
+    corner = C[IPROJ] == PCORNER
+    c = carray(_on_stack(_corners(off)), 4)
     for k in range(C[PN]):
         base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
-        N = carray(_on_stack(_rows(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]), nen)
         s = 0.0
-        for a in range(nen):
-            s += N[a] * pn[base + offs[a]]
+        if corner:
+            n4 = carray(_on_stack(shapes.q4(tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]), 4)
+            for a in range(4):
+                s += n4[a] * pn[2 * (base + offs[c[a]])]
+        else:
+            N = carray(_on_stack(_rows(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]),
+                       nen)
+            for a in range(nen):
+                s += N[a] * pn[base + offs[a]]
         pp[k] -= s
 
 

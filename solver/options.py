@@ -209,9 +209,10 @@ SPEC = [
            "assume), large (at their current positions: moving-point MPM), auto (small)",
            (CONSOLIDATION,), choices=("auto", "small", "large")),
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
-           "point), nodal (projected onto the nodal field and interpolated back), auto "
-           "(nodal for q4, none for q8 and q9)", (CONSOLIDATION,),
-           choices=("auto", "none", "nodal")),
+           "point), nodal (projected onto the nodal field and interpolated back), corner "
+           "(onto the bilinear field of the cells' corner nodes: a pressure of lower order "
+           "than the quadratic cells' velocities), auto (nodal for q4, none for q8 and q9)",
+           (CONSOLIDATION,), choices=("auto", "none", "nodal", "corner")),
     Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
            "force, velocity transfers and relative motion): element (N), blended (N/2 + "
            "N_Q4/2, positive lumped weights), auto (blended for q8)", (CONSOLIDATION,),

@@ -175,11 +175,15 @@ def _linear_parts(grid, points, body, soil, scheme):
     # basis: (1 - n) div u_s + n div u_l when that is N.
     n = np.reshape(n, (-1, 1))
     pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
-    if scheme.pressure_projection == "nodal":
-        # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
-        Sw = Wm.T @ V
-        pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
-                      * (Wm * V[:, None]).T) @ pres)
+    if scheme.pressure_projection != "none":
+        # p = Pi p: lumped projection onto the nodes (weights w V) and back with N, or onto
+        # the corner nodes' bilinear field (weights N_Q4 V, back with N_Q4).
+        Wp, Np = Wm, Nm
+        if scheme.pressure_projection == "corner":
+            Wp = Np = spread(assembly.interpolation(grid, x, corner=True).N)
+        Sw = Wp.T @ V
+        pres = Np @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
+                      * (Wp * V[:, None]).T) @ pres)
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     # sum_p V_p B_p^T sig_p as one matrix product (BLAS; einsum's loops took seconds on M3).

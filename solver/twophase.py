@@ -145,7 +145,11 @@ class TwoPhase:
         # Small kinematics: shape functions at the initial positions x0 (a point's cell never
         # changes, so nothing migrates); large: at the current positions.
         self.small = scheme.kinematics == "small"
-        self.project = scheme.pressure_projection == "nodal"
+        # Pressure projection: 0 none, kernels.PNODAL or PCORNER; the corner projection's
+        # nodal pairs (sum N_Q4 V dp, sum N_Q4 V) take two fields per node.
+        self.project = {"none": 0, "nodal": kernels.PNODAL,
+                        "corner": kernels.PCORNER}[scheme.pressure_projection]
+        self.pfields = 2 if self.project == kernels.PCORNER else 1
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
         self.hrz = self.lumping != "rowsum"
@@ -291,7 +295,7 @@ class TwoPhase:
         if self.serial:
             self._Gl = self._G = np.zeros(self.ng * self.nf)
             self._O = self._Og = np.zeros(self.ng * NG)
-            self._pn = self._pg = np.zeros(self.ng if self.project else 0)
+            self._pn = self._pg = np.zeros(self.ng * self.pfields if self.project else 0)
             return
         da = self.grid.da
         self.da_f, self.da_g = da.duplicate(dof=self.nf), da.duplicate(dof=NG)
@@ -301,7 +305,7 @@ class TwoPhase:
         self._O, self._Og = self.loc_g.getArray(), self.glob_g.getArray()
         self._pn = self._pg = np.zeros(0)
         if self.project:
-            self.da_p = da.duplicate(dof=1)
+            self.da_p = da.duplicate(dof=self.pfields)
             self.loc_p, self.glob_p = self.da_p.createLocalVec(), self.da_p.createGlobalVec()
             self._pn, self._pg = self.loc_p.getArray(), self.glob_p.getArray()
 

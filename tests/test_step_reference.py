@@ -66,6 +66,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     it = assembly.interpolation(grid, st["x0"] if small else x)
     N, dN, nodes = it.N, it.dNdx, it.nodes
     w = assembly.lumping_weights(N, scheme.lumping)
+    corner_it = assembly.interpolation(grid, st["x0"] if small else x, corner=True)
     # The liquid equation's weights and test functions: w and N, or N_hat for both.
     if scheme.liquid_basis == "blended":
         bl = assembly.interpolation(grid, st["x0"] if small else x, blended=True)
@@ -146,11 +147,15 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     J *= 1 + dt * div_s
     if visc is not None:
         visc[:] = eta * div_s
-    if scheme.pressure_projection == "nodal":
-        # Lumped projection onto the nodes, back at the points' new positions.
-        num = np.bincount(nodes.ravel(), weights=(w * (V * dp)[:, None]).ravel(), minlength=ng)
-        den = np.bincount(nodes.ravel(), weights=(w * V[:, None]).ravel(), minlength=ng)
-        back = it if small else assembly.interpolation(grid, x)
+    if scheme.pressure_projection != "none":
+        # Lumped projection onto the nodes, back at the points' new positions; the corner
+        # projection weighs with and interpolates back by the corners' bilinear functions.
+        corner = scheme.pressure_projection == "corner"
+        wp = corner_it.N if corner else w
+        num = np.bincount(nodes.ravel(), weights=(wp * (V * dp)[:, None]).ravel(), minlength=ng)
+        den = np.bincount(nodes.ravel(), weights=(wp * V[:, None]).ravel(), minlength=ng)
+        back = ((corner_it if corner else it) if small else
+                assembly.interpolation(grid, x, corner=corner))
         dp = np.einsum("pa,pa->p", back.N, (num * inv(den))[back.nodes])
     pp -= dp
 
@@ -237,6 +242,17 @@ CASES = [
          bulk_viscosity=0.2, fast_damping=0.3, flip=0.5),
     dict(element="q8", cells="3,30", ppc=3, layers="0.5,0.5", k="1e-4,1e-5",
          lumping="hrz", drained="bottom", mass_scaling=10),
+    # The corner projection (pressure on the corner nodes' bilinear field), both
+    # kinematics, drained through the sides, with the blended basis and layers.
+    dict(element="q8", cells="4,4", ppc=3, size="1.2,1.2", drained="left,right",
+         pressure_projection="corner"),
+    dict(element="q9", cells="4,4", ppc=3, size="1.2,1.2", drained="left,right,top",
+         pressure_projection="corner", kinematics="large", drag="explicit", flip=0.5),
+    dict(element="q8", cells="3,30", ppc=3, kinematics="large", pressure_projection="corner",
+         gravity=9.81, bulk_viscosity=0.2),
+    dict(element="q9", cells="3,30", ppc=3, lumping="hrz", liquid_basis="blended",
+         pressure_projection="corner", layers="0.4,0.6", E="40e6,10e6", k="1e-4,1e-5"),
+    dict(element="q4", cells="4,40", pressure_projection="corner", kinematics="large"),
 ]
 
 
@@ -315,11 +331,15 @@ RANK_CASES = [
             "nodal", "-mpm_bulk_viscosity", "0.2", "-mpm_fast_damping", "0.3", "-mpm_flip",
             "0.5", "-mpm_gravity", "9.81"]),
     ("q8", ["-mpm_ppc", "3", "-mpm_drag", "explicit"]),
+    ("q9", ["-mpm_ppc", "3", "-mpm_pressure_projection", "corner", "-mpm_kinematics",
+            "large", "-mpm_drained", "top,left"]),
+    ("q8", ["-mpm_ppc", "3", "-mpm_pressure_projection", "corner"]),
 ]
 
 
 @pytest.mark.mpi(2)
-@pytest.mark.parametrize("element,extra", RANK_CASES, ids=[c[0] for c in RANK_CASES])
+@pytest.mark.parametrize("element,extra", RANK_CASES,
+                         ids=[c[0] + "-corner" * ("corner" in c[1]) for c in RANK_CASES])
 def test_two_ranks_equal_one_rank(cli, tmp_path, element, extra):
     """The consolidation scene M2 (2 x 20 cells, cut between the ranks across the column)
     run on 1 and on 2 ranks: every field of every material point in the last checkpoint
