@@ -24,9 +24,10 @@ Arguments, all kept between steps (no per-step temporaries):
   nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
   velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected pressure
   increments (1 field; 2 with the corner projection: sum N_Q4 V dp and its own lumped
-  mass sum N_Q4 V) and the static data (NB = 5 per owned node: the load's nodal force,
+  mass sum N_Q4 V) and the static data (NB = 6 per owned node: the load's nodal force,
   then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y); a v_l DOF with 0 is
-  normal to an impermeable side and tied to v_s, see :func:`nodal_update`).
+  normal to an impermeable side and tied to v_s, see :func:`nodal_update`; then 1, or 0
+  on a drained side, where the corner projection holds the pressure).
 
 Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__`` (or
 ``NUMBA_CACHE_DIR``), so only the first run on a machine compiles; :func:`warm_up` compiles
@@ -52,7 +53,8 @@ _jit = njit(cache=True, **shapes.KERNEL_OPTIONS)
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
-NB = 5        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied)
+NB = 6        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied),
+              # free flag of the corner projection's pressure (0: drained)
 
 # C: point count and point-field addresses ...
 (PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW, PLAYER) = range(12)
@@ -620,12 +622,14 @@ def _to_corners(off, offs, pacc, base, xn, yn, V, dp):
 def project_nodes(C):
     """Lumped projection at the owned nodes: pn = sum w V dp / S (0 where S = sum w V <=
     0), S the first of the sums per node; corner projection: pn = sum N_Q4 V dp / sum N_Q4
-    V, the pair of fields per node (0 off the corners)."""
+    V, the pair of fields per node (0 off the corners, and on a drained side: the pressure
+    held there, as a Taylor-Hood element holds its pressure DOFs)."""
     G, pn, nf = _array(C, AGO), _array(C, APO), C[INF]
     if C[IPROJ] == PCORNER:
+        B = _array(C, AB)
         for k in range(pn.shape[0] // 2):
             S = pn[2 * k + 1]
-            pn[2 * k] *= 1.0 / S if S > 0.0 else 0.0
+            pn[2 * k] *= (1.0 / S if S > 0.0 else 0.0) * B[k * NB + 5]
         return
     for k in range(pn.shape[0]):
         S = G[k * nf]

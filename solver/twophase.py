@@ -177,6 +177,7 @@ class TwoPhase:
         assert not self.serial or self.ng == self.nown
         self.fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(body.impermeable).reshape(-1, 2)
+        self.drained = grid.constrained_mask({s: "x" for s in body.drained})[::2]
         self.traction = self._traction(loading)
         self._R, self._B = self._reals(), self._node_data()
         # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
@@ -278,11 +279,13 @@ class TwoPhase:
 
     def _node_data(self):
         """Per owned node (kernels.NB values): the load's force for a load factor of 1 (N
-        per m), then 1 on the free and 0 on the fixed DOFs of v_s (x, y) and v_l (x, y)."""
+        per m), then 1 on the free and 0 on the fixed DOFs of v_s (x, y) and v_l (x, y),
+        then 0 on a drained side (the corner projection holds the pressure there), else 1."""
         B = np.empty((self.nown, NB))
         B[:, 0] = self.traction
         B[:, 1:3] = ~self.fixed_s
         B[:, 3:5] = ~self.fixed_l
+        B[:, 5] = ~self.drained
         return B.ravel()
 
     def _nodal_arrays(self):
