@@ -74,8 +74,12 @@ POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "i
 def point_fields(scheme, layered: bool = False) -> dict:
     """The point fields of a run with ``scheme``: POINT_FIELDS, with the viscous stress (Pa)
     of -mpm_bulk_viscosity and the slow mixture velocity (m/s) of -mpm_fast_damping when
-    on, and in layered ground the point's layer (its index from the surface down)."""
+    on, in layered ground the point's layer (its index from the surface down), and with
+    the corner pressure projection the gradient of the pore pressure (Pa/m), which the
+    liquid force takes (kernels.points_to_grid)."""
     fields = dict(POINT_FIELDS)
+    if scheme.pressure_projection == "corner":
+        fields["gradp"] = 2
     if layered:
         fields["layer"] = 1
     if scheme.bulk_viscosity > 0:
@@ -344,13 +348,15 @@ class TwoPhase:
         self.visc = pts.views("visc") if self.eta else None
         self.vslow = pts.views("vslow") if self.fast_rate else None
         self.layer = pts.views("layer") if self.layered else None
+        self.gradp = pts.views("gradp") if self.project == kernels.PCORNER else None
         self.xref = self.x0 if self.small else self.x
         self.n_local = pts.n_local
         slots = {K.PX: self.x, K.PXREF: self.xref, K.PV: self.V, K.PVS: self.vs,
                  K.PVL: self.vl, K.PSIG: self.sig, K.PP: self.pp, K.PJ: self.J,
-                 K.PVISC: self.visc, K.PVSLOW: self.vslow, K.PLAYER: self.layer}
+                 K.PVISC: self.visc, K.PVSLOW: self.vslow, K.PLAYER: self.layer,
+                 K.PGRADP: self.gradp}
         C = self._C
-        C[K.PN:K.PLAYER + 1] = 0
+        C[K.PN:K.PGRADP + 1] = 0
         C[K.PN] = self.n_local
         for slot, a in slots.items():
             if a is not None:

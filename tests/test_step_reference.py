@@ -92,6 +92,10 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     C[..., 8] = -(dN[..., 0] * sxx[:, None] + dN[..., 1] * sxy[:, None])
     C[..., 9] = -(dN[..., 0] * sxy[:, None] + dN[..., 1] * syy[:, None])
     C[..., 10:12] = dNl * (pp * V)[:, None, None]
+    corner = scheme.pressure_projection == "corner"
+    if corner:
+        # The liquid force in gradient form: -N_l V grad p, grad p the points' field.
+        C[..., 10:12] = -(Nl * V[:, None])[..., None] * st["gradp"][:, None, :]
     C[..., 8:10] += (N * wm[:, None])[..., None] * gvec
     C[..., 10:12] += (Nl * wt[:, None])[..., None] * gvec
     G = np.bincount((nodes[..., None] * 12 + np.arange(12)).ravel(), weights=C.ravel(),
@@ -147,15 +151,26 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     J *= 1 + dt * div_s
     if visc is not None:
         visc[:] = eta * div_s
-    if scheme.pressure_projection != "none":
-        # Lumped projection onto the nodes, back at the points' new positions; the corner
-        # projection weighs with and interpolates back by the corners' bilinear functions.
-        corner = scheme.pressure_projection == "corner"
-        wp = corner_it.N if corner else w
-        num = np.bincount(nodes.ravel(), weights=(wp * (V * dp)[:, None]).ravel(), minlength=ng)
-        den = np.bincount(nodes.ravel(), weights=(wp * V[:, None]).ravel(), minlength=ng)
-        back = ((corner_it if corner else it) if small else
-                assembly.interpolation(grid, x, corner=corner))
+    if corner:
+        # Onto the corners' bilinear field N4: sum V (N4 dt K_l/n div v_s - grad N4 . dt
+        # K_l w), w = v_l - v_s in the liquid's basis (the weak divergence), over sum N4 V;
+        # held on the drained sides; back to p and grad p.
+        w_l = np.einsum("pa,pai->pi", Nl, Hn[..., 6:8] - Hn[..., 4:6])
+        vals = V[:, None] * (corner_it.N * (dt * p.K_l / n * div_s)[:, None]
+                             - np.einsum("pai,pi->pa", corner_it.dNdx, dt * p.K_l * w_l))
+        num = np.bincount(nodes.ravel(), weights=vals.ravel(), minlength=ng)
+        den = np.bincount(nodes.ravel(), weights=(corner_it.N * V[:, None]).ravel(),
+                          minlength=ng)
+        held = grid.constrained_mask({s: "x" for s in p.drained if s != "none"})[::2]
+        pn = np.where(held, 0.0, num * inv(den))
+        back = corner_it if small else assembly.interpolation(grid, x, corner=True)
+        dp = np.einsum("pa,pa->p", back.N, pn[back.nodes])
+        st["gradp"] -= np.einsum("pai,pa->pi", back.dNdx, pn[back.nodes])
+    elif scheme.pressure_projection == "nodal":
+        # Lumped projection onto the nodes, back at the points' new positions.
+        num = np.bincount(nodes.ravel(), weights=(w * (V * dp)[:, None]).ravel(), minlength=ng)
+        den = np.bincount(nodes.ravel(), weights=(w * V[:, None]).ravel(), minlength=ng)
+        back = it if small else assembly.interpolation(grid, x)
         dp = np.einsum("pa,pa->p", back.N, (num * inv(den))[back.nodes])
     pp -= dp
 
@@ -294,6 +309,10 @@ def test_step_matches_reference(opts):
         with points.fields("vslow") as vslow:
             vslow[:] = rng.normal(size=vslow.shape) * 1e-4
         names["vslow"] = "vslow"
+    if scheme.pressure_projection == "corner":
+        with points.fields("gradp") as gradp:
+            gradp[:] = rng.normal(size=gradp.shape) * 1e4
+        names["gradp"] = "gradp"
     ref = dict(zip(names, points.get(*names.values())))
     ref["layer_y"] = ref["x0"][:, 1].copy()
     if layered:
