@@ -278,10 +278,9 @@ def _blended(off, R, xi, eta, S):
 def points_to_grid(off, C, hrz, blend, layered):
     """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
-    + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2; with the
-    corner projection in gradient form, N_l V (rho_l g - grad p), grad p the point's
-    field), w_l V (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the
-    layer's; the momenta then weighted by c_s and c_l too: w m_s v_s, w_l m_l v_l)."""
+    + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2; corner
+    projection: N_l V (rho_l g - grad p)), w_l V (blended basis), and with layers w V c_s,
+    w_l V c_l, w_l V c_q (the layer's; the momenta then w m_s v_s, w_l m_l v_l)."""
     n, nf = C[PN], C[INF]
     R, G = _array(C, AR), _array(C, AGL)
     layer, im = _points1(C, PLAYER), nf - 3
@@ -291,10 +290,7 @@ def points_to_grid(off, C, hrz, blend, layered):
     xr, V = _points(C, PXREF, 2), _points1(C, PV)
     vs, vl, sig, pp = _points(C, PVS, 2), _points(C, PVL, 2), _points(C, PSIG, 3), \
         _points1(C, PP)
-    eta = R[RETA] > 0.0
-    visc = _points1(C, PVISC)
-    grad, gp = C[IPROJ] == PCORNER, _points(C, PGRADP, 2)
-    lx = 0.0
+    eta, visc, gp = R[RETA] > 0.0, _points1(C, PVISC), _points(C, PGRADP, 2)
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
     offs = carray(_on_stack(off), nen)
@@ -304,6 +300,7 @@ def points_to_grid(off, C, hrz, blend, layered):
     # writes them.
     K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
+    r7 = rnl if C[IPROJ] == PCORNER else rlx     # the liquid force's x row (N_l: grad form)
     for k in range(n):
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None:
@@ -320,10 +317,7 @@ def points_to_grid(off, C, hrz, blend, layered):
         t01 = -(sig[k, 2] * Vk)
         msx, msy, mlx, mly = vs[k, 0] * Vk, vs[k, 1] * Vk, vl[k, 0] * Vk, vl[k, 1] * Vk
         pV, gmV, glV = p * Vk, Vk * gm, Vk * gl
-        if grad:
-            # The liquid force in gradient form (N_l-weighted, as the drag: exact Darcy
-            # balance cell by cell; see _to_corners).
-            lx, glV = -(gp[k, 0] * Vk), glV - gp[k, 1] * Vk
+        pV, lx, glV = (0.0, -gp[k, 0] * Vk, glV - gp[k, 1] * Vk) if r7 == rnl else (pV, 0.0, glV)
         if layered is not None:
             r = NR + NL * int(layer[k])
             gmV = Vk * R[r + LGM]
@@ -336,9 +330,7 @@ def points_to_grid(off, C, hrz, blend, layered):
             K[SN, 0], K[SN, 1], K[SN, 2], K[SN, 3], K[SN, 4] = Vk, msx, msy, mlx, mly
             K[SX, 5], K[SY, 5] = t00, t01
             K[SX, 6], K[SY, 6], K[SN, 6] = t01, t11, gmV
-            K[SX, 7], K[SY, 8], K[SN, 8] = pV, pV, glV
-            if grad:
-                K[SX, 7], K[SY, 8], K[SN, 7] = 0.0, 0.0, lx
+            K[SX, 7], K[SY, 8], K[SN, 7], K[SN, 8] = pV, pV, lx, glV
             for a in range(nen):
                 g = Gn[base + offs[a]]
                 sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
@@ -355,12 +347,8 @@ def points_to_grid(off, C, hrz, blend, layered):
             g[4] += wl * mly
             g[5] += dx * t00 + dy * t01
             g[6] += dx * t01 + dy * t11 + S[SN, a] * gmV
-            if grad:
-                g[7] += Nl * lx
-                g[8] += Nl * glV
-            else:
-                g[7] += S[rlx, a] * pV
-                g[8] += S[rly, a] * pV + Nl * glV
+            g[7] += S[r7, a] * (pV + lx)
+            g[8] += S[rly, a] * pV + Nl * glV
             if blend is not None:
                 g[9] += Nl * Vk
             if layered is not None:
@@ -484,8 +472,8 @@ def nodal_update(C, dt, load_factor, damping):
 @_jit
 def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     """Grid to points from O (ghosted-local nodes x NG): velocities (FLIP, or FLIP/PIC blend
-    ``flip``), stress (D d eps), pore pressure (eqs. 8-9; projected: nodal sums w V dp into
-    ``pacc``, or the corner projection's, :func:`_to_corners`), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, volume ratio J."""
+    ``flip``), stress (D d eps), pore pressure (eqs. 8-9; projected: nodal sums into ``pacc``,
+    :func:`_to_nodes`), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, J."""
     n, project = C[PN], C[IPROJ]
     R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
     x, xr, V, vs, vl, sig, pp, J, visc, vslow, layer = _g2p_fields(C)
@@ -549,15 +537,9 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
         for i in range(3):
             sig[k, i] += D[3 * i] * e0 + D[3 * i + 1] * e1 + D[3 * i + 2] * e2
         dp = (divs * cdiv + dvl * n_) * kdp
-        if project == PCORNER:
-            # div v_s, and the relative velocity in the liquid's basis (weak divergence).
-            f = n_ * kdp
-            _to_corners(off, offs, pacc, base, xn, yn, R, V[k], divs * kdp,
-                        (A[rnl, 6] - A[rnl, 4]) * f, (A[rnl, 7] - A[rnl, 5]) * f)
-        elif project:
-            wV = V[k]
-            for a in range(nen):
-                pacc[base + offs[a]] += S[rw, a] * wV * dp
+        if project:
+            _to_nodes(off, offs, pacc, base, xn, yn, R, S[rw], A[rnl], project, V[k], dp,
+                      divs * kdp, n_ * kdp)
         else:
             pp[k] -= dp                          # eqs. 8-9
         x[k, 0] += a4 * dt
@@ -623,11 +605,24 @@ def _corners(off):
 
 
 @_jit
-def _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, fx, fy):
+def _to_nodes(off, offs, pacc, base, xn, yn, R, w, Al, project, V, dp, ds, f):
+    """The pressure projection's sums of one point of volume V (m3) and increment dp (Pa)
+    with lumping weights ``w``: w V dp (nodal), or :func:`_to_corners`' (corner) with
+    ds = dt (K_l / n) div v_s (Pa), f = dt K_l (Pa s) and the liquid's basis row Al of
+    the interpolated nodal results (v_s, v_l in fields 4-7)."""
+    if project == PCORNER:
+        _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, f, Al[6] - Al[4], Al[7] - Al[5])
+        return
+    for a in range(len(off)):
+        pacc[base + offs[a]] += w[a] * V * dp
+
+
+@_jit
+def _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, f, wx, wy):
     """The corner projection's sums of one point at natural (xn, yn), volume V (m3): into
-    the two fields of its cell's corners, V (N_Q4 ds - grad N_Q4 . (fx, fy)) and N_Q4 V,
-    ds = dt (K_l / n) div v_s (Pa), (fx, fy) = dt K_l (v_l - v_s) (Pa m), the relative
-    velocity in the liquid's basis: its divergence in weak form.
+    the two fields of its cell's corners, V (N_Q4 ds - f grad N_Q4 . w) and N_Q4 V, with
+    ds = dt (K_l / n) div v_s (Pa), f = dt K_l (Pa s) and w = (wx, wy) = v_l - v_s (m/s)
+    in the liquid's basis: its divergence in weak form.
 
     Why the weak form: the points integrate the cell's products of functions only to
     first degree (3 x 3 sub-cell centres), and the strong form's N_Q4 div(N_l) is of
@@ -640,7 +635,7 @@ def _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, fx, fy):
     c = carray(_on_stack(_corners(off)), 4)
     for k in range(4):
         i = 2 * (base + offs[c[k]])
-        pacc[i] += V * (N[0, k] * ds - N[1, k] * fx - N[2, k] * fy)
+        pacc[i] += V * (N[0, k] * ds - (N[1, k] * wx + N[2, k] * wy) * f)
         pacc[i + 1] += N[0, k] * V
 
 
@@ -665,35 +660,44 @@ def project_nodes(C):
 @_jit
 def project_back(off, C):
     """Pore pressures p -= sum N pn (ghosted-local nodes) at the points' reference positions
-    (x0, or the new x); the corner projection: p -= sum N_Q4 pn over the cell's corners,
-    and their gradient grad p -= sum grad N_Q4 pn (Pa/m)."""
+    (x0, or the new x); the corner projection's: :func:`_back_from_corners`."""
+    if C[IPROJ] == PCORNER:
+        _back_from_corners(off, C)
+        return
     R, pn = _array(C, AR), _array(C, APL)
-    xr, pp, gp = _points(C, PXREF, 2), _points1(C, PP), _points(C, PGRADP, 2)
+    xr, pp = _points(C, PXREF, 2), _points1(C, PP)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
-    corner = C[IPROJ] == PCORNER
+    for k in range(C[PN]):
+        base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
+        N = carray(_on_stack(_rows(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]), nen)
+        s = 0.0
+        for a in range(nen):
+            s += N[a] * pn[base + offs[a]]
+        pp[k] -= s
+
+
+@_jit
+def _back_from_corners(off, C):
+    """The corner projection back to the points: p -= sum N_Q4 pn and grad p -= sum grad
+    N_Q4 pn (Pa/m) over the corners of each point's cell, at its reference position."""
+    R, pn = _array(C, AR), _array(C, APL)
+    xr, pp, gp = _points(C, PXREF, 2), _points1(C, PP), _points(C, PGRADP, 2)
+    offs = carray(_on_stack(off), len(off))
     c = carray(_on_stack(_corners(off)), 4)
     for k in range(C[PN]):
         base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
-        s = 0.0
-        if corner:
-            N4 = carray(_on_stack(shapes.q4(tx * 2.0 - 1.0, ty * 2.0 - 1.0, R[RSX], R[RSY])),
-                        (3, 4))
-            gx = gy = 0.0
-            for a in range(4):
-                pa = pn[2 * (base + offs[c[a]])]
-                s += N4[0, a] * pa
-                gx += N4[1, a] * pa
-                gy += N4[2, a] * pa
-            gp[k, 0] -= gx
-            gp[k, 1] -= gy
-        else:
-            N = carray(_on_stack(_rows(off, tx * 2.0 - 1.0, ty * 2.0 - 1.0, 1.0, 1.0)[0]),
-                       nen)
-            for a in range(nen):
-                s += N[a] * pn[base + offs[a]]
+        N = carray(_on_stack(shapes.q4(tx * 2.0 - 1.0, ty * 2.0 - 1.0, R[RSX], R[RSY])),
+                   (3, 4))
+        s = gx = gy = 0.0
+        for a in range(4):
+            pa = pn[2 * (base + offs[c[a]])]
+            s += N[0, a] * pa
+            gx += N[1, a] * pa
+            gy += N[2, a] * pa
         pp[k] -= s
-
+        gp[k, 0] -= gx
+        gp[k, 1] -= gy
 
 @_jit
 def grid_to_points_serial(off, C, hrz, blend, layered, dt, flip):

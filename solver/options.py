@@ -83,6 +83,17 @@ def _scaling(v):
     return None if S > 0 else "must be none, auto or > 0"
 
 
+def _fraction(v):
+    """-mpm_flip: auto or a number in [0, 1]."""
+    if v == "auto":
+        return None
+    try:
+        f = _parse_float(v)
+    except ValueError:
+        return "choose auto or a number in [0, 1]"
+    return None if 0 <= f <= 1 else "must be auto or lie in [0, 1]"
+
+
 def _figure_formats(v):
     from .output import figure_formats
 
@@ -200,8 +211,9 @@ SPEC = [
            "v_slow their mixture velocity low-passed over 1/w1 (w1 = 2 pi / T_w, T_w the "
            "scaled wave period 4H/c1); both phases alike, so Darcy flow is untouched; takes "
            "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
-    Option("flip", "float", 1.0, "FLIP fraction of the point velocity update (0: PIC)",
-           (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
+    Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
+           "(0: PIC), or auto (1; 0.99 for q8 with the corner pressure projection, whose "
+           "pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), _fraction),
     Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
