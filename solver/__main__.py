@@ -90,7 +90,7 @@ def _scan_options_files(argv) -> tuple:
             return origins, _fail(f"{flag} {path}: no such file", 2, _rank())
         if flag == "-options_file":
             from .errors import InputError
-            from .options import scan_file
+            from .scenefile import scan_file
 
             try:
                 origins.update(scan_file(path))

@@ -31,7 +31,7 @@ from .failure import RunFailure
 from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
 from .scene import Body, Loading
-from .scheme import Scheme
+from .scheme import Scheme, lateral_drainage_notes
 from .soil import Ground, check_count
 from .twophase import TwoPhase, point_fields
 
@@ -85,7 +85,7 @@ def _validate(p) -> tuple:
     if "none" in p.drained and len(p.drained) > 1:
         raise InputError(f"-mpm_drained {','.join(p.drained)}: none means no drained side; "
                          "give it alone")
-    _check_lateral_drainage(p.element, p.drained)
+    notes += lateral_drainage_notes(p.element, p.drained, p.pressure_projection)
     fe_reference.check_cells(p.fe_cells, p.layers, H)
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
@@ -94,21 +94,6 @@ def _validate(p) -> tuple:
     Ground.from_options(p)        # checks -mpm_layers and the per-layer values
     check_count("K0", p.K0, p.layers)
     return p, notes
-
-
-def _check_lateral_drainage(element: str, drained):
-    """InputError for quadratic cells drained through a side: water flowing across the
-    column excites a pressure mode inside each cell that the discrete gradient does not see
-    (the points' pressures alternate within a cell and never drain). Measured on a 1.2 m
-    block drained left and right, 8 x 8 cells (the node spacing of Q4 16 x 16): Q9 +5 / -9 %
-    of q in every cell at T_v = 0.5, 10-15 % off Q4 16 x 16; Q8 likewise (7-25 %); the
-    nodal projection leaves Q9 +-3 % and blows Q8 up; Q4 converges (docs/method.md)."""
-    lateral = [side for side in ("left", "right") if side in drained]
-    if element != "q4" and lateral:
-        raise InputError(
-            f"-mpm_element {element}: quadratic cells drained through a side (-mpm_drained "
-            f"{','.join(drained)}) keep a spurious pressure mode in every cell (10-15 % of q "
-            "off; docs/method.md); use q4")
 
 
 def run(p, comm) -> int:

@@ -24,8 +24,8 @@ import math
 from dataclasses import dataclass
 
 from .errors import InputError
+from .scenefile import PREFIX, pairs as file_pairs
 
-PREFIX = "mpm_"
 EIGEN, CONSOLIDATION = "eigen", "consolidation"
 BOTH = (EIGEN, CONSOLIDATION)
 BC_CHOICES = ("none", "x", "y", "xy")
@@ -81,6 +81,17 @@ def _scaling(v):
     except ValueError:
         return "choose none, auto or a number S > 0"
     return None if S > 0 else "must be none, auto or > 0"
+
+
+def _fraction(v):
+    """-mpm_flip: auto or a number in [0, 1]."""
+    if v == "auto":
+        return None
+    try:
+        f = _parse_float(v)
+    except ValueError:
+        return "choose auto or a number in [0, 1]"
+    return None if 0 <= f <= 1 else "must be auto or lie in [0, 1]"
 
 
 def _figure_formats(v):
@@ -214,8 +225,9 @@ SPEC = [
            "v_slow their mixture velocity low-passed over 1/w1 (w1 = 2 pi / T_w, T_w the "
            "scaled wave period 4H/c1); both phases alike, so Darcy flow is untouched; takes "
            "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
-    Option("flip", "float", 1.0, "FLIP fraction of the point velocity update (0: PIC)",
-           (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
+    Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
+           "(0: PIC), or auto (1; 0.99 for q8 with the corner pressure projection, whose "
+           "pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), _fraction),
     Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
@@ -223,9 +235,10 @@ SPEC = [
            "assume), large (at their current positions: moving-point MPM), auto (small)",
            (CONSOLIDATION,), choices=("auto", "small", "large")),
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
-           "point), nodal (projected onto the nodal field and interpolated back), auto "
-           "(nodal for q4, none for q8 and q9)", (CONSOLIDATION,),
-           choices=("auto", "none", "nodal")),
+           "point), nodal (projected onto the nodal field and interpolated back), corner "
+           "(onto the bilinear field of the cells' corner nodes: a pressure of lower order "
+           "than the quadratic cells' velocities), auto (nodal for q4, none for q8 and q9)",
+           (CONSOLIDATION,), choices=("auto", "none", "nodal", "corner")),
     Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
            "force, velocity transfers and relative motion): element (N), blended (N/2 + "
            "N_Q4/2, positive lumped weights), auto (blended for q8)", (CONSOLIDATION,),
@@ -465,50 +478,6 @@ def _assemble(spec, given: dict, origins: dict, base: dict):
                from_file={n: origins[n] for n in given if n in origins}, notes=tuple(notes))
 
 
-def _option_lines(text: str):
-    """(line number, line, words) of each line of an options file that is not empty or a
-    comment."""
-    for number, line in enumerate(text.splitlines(), start=1):
-        words = line.split("#", 1)[0].split()
-        if words:
-            yield number, line, words
-
-
-def _file_pairs(path: str) -> list:
-    """``[(name, value or None)]`` of a plain options file (checked by scan_file), in order."""
-    with open(path, encoding="utf-8") as fh:
-        return [(w[0][1:], w[1] if len(w) > 1 else None)
-                for _, _, w in _option_lines(fh.read())]
-
-
-def scan_file(path: str) -> dict:
-    """Check a plain PETSc options file line by line before PETSc reads it.
-
-    Returns where each ``-mpm_`` option is set, ``{name: "path:line"}``. A line must be empty,
-    a comment (``#``) or ``-option [value]``; anything else is an InputError naming the file
-    and line (PETSc itself would stop with a multi-line error dump).
-    """
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file") from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror})") from None
-    if "\0" in text:
-        raise InputError(f"{path}: not a text file")
-    where = {}
-    for number, line, tokens in _option_lines(text):
-        if not tokens[0].startswith("-") or len(tokens[0]) < 2 or len(tokens) > 2:
-            raise InputError(f"{path}:{number}: expected '-option [value]', found "
-                             f"'{line.strip()[:60]}'")
-        name = tokens[0][1:]
-        if name.startswith(PREFIX):
-            where[name[len(PREFIX):]] = f"{path}:{number}"
-    return where
-
-
 def table(spec=None, values=None) -> str:
     """The option table as Markdown (the README's). ``values`` (a :func:`read` result, or
     ``{name: text}``) adds a column "value" with the values in effect (``-help``)."""
@@ -585,7 +554,7 @@ def command_line(argv, db=None):
                 raise InputError("-options_file_yaml: only on a command line; from Python "
                                  "give -options_file")
             if name == "options_file":
-                for option, text in _file_pairs(value):
+                for option, text in file_pairs(value):
                     db.setValue(option, text)
         for name, value in pairs:
             if name not in ("options_file", "help", "-help", "h"):

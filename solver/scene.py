@@ -153,7 +153,8 @@ def geostatic_state(points, body, soil, loading) -> None:
     d = H - y0 (m), gamma' = (1 - n)(rho_s - rho_l) g the buoyant weight (in layered
     ground, sigma'_yy the buoyant weight above, K0 each layer's): the state at rest
     under gravity with the water table at the surface. It is in equilibrium with the step's
-    body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides)."""
+    body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides).
+    Points that carry the pressure's gradient (the corner projection) get (0, -rho_l g)."""
     g, layers = loading.gravity, soil.soils
     given = loading.K0 if isinstance(loading.K0, tuple) else (loading.K0,) * len(layers)
     K0 = np.array([s.nu / (1 - s.nu) if math.isnan(k) else k for s, k in zip(layers, given)])
@@ -172,6 +173,10 @@ def geostatic_state(points, body, soil, loading) -> None:
             sig[:, 1] = -(above[layer] + buoyant[layer] * (tops[layer] - x0[:, 1]))
         sig[:, 0] = K0[layer] * sig[:, 1]
         sig[:, 2] = 0.0
+    if "gradp" in points.layout:
+        # The pressure's gradient (Pa/m), for the corner projection's liquid force.
+        with points.fields("gradp") as gradp:
+            gradp[:] = (0.0, -soil.rho_l * g)
 
 
 def top_forces(grid, loading) -> np.ndarray:

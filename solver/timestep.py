@@ -192,24 +192,28 @@ def _linear_parts(grid, points, body, soil, scheme):
     # dp = -(K_l / n) (div u_s + n div(u_l - u_s)), the relative motion in the liquid's
     # basis: (1 - n) div u_s + n div u_l when that is N. In layers the relative motion is
     # the nodes' Darcy flux n_q (u_l - u_s), n_q = Q / sum w_l V c_q / n (kernels).
+    n, flux = np.reshape(n, (-1, 1)), None
     if len(soil.soils) > 1:
-        nq = np.tile(Q * _inv(Wl.T @ (mat["drag_coefficient"] / n * V)), 2)
-        n = np.reshape(n, (-1, 1))
-        pres = -(soil.K_l / n) * np.hstack([div - Dl * nq, Dl * nq])
+        nq = Q * _inv(Wl.T @ (mat["drag_coefficient"] / n.ravel() * V))
+        flux = nq / n                 # (K_l / n) q = K_l (n_q / n) w, per point and node
+        pres = -(soil.K_l / n) * np.hstack([div - Dl * np.tile(nq, 2), Dl * np.tile(nq, 2)])
     else:
-        n = np.reshape(n, (-1, 1))
         pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
     if scheme.pressure_projection == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
         Sw = Wm.T @ V
         pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
                       * (Wm * V[:, None]).T) @ pres)
+    fl = None
+    if scheme.pressure_projection == "corner":
+        pres, fl = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread, flux)
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     # sum_p V_p B_p^T sig_p as one matrix product (BLAS; einsum's loops took seconds on M3).
     npt, ncomp, ncol = B.shape
     fm = -(B * V[:, None, None]).reshape(npt * ncomp, ncol).T @ sig.reshape(npt * ncomp, -1)
-    fl = Dl.T @ (V[:, None] * pres)
+    if fl is None:
+        fl = Dl.T @ (V[:, None] * pres)
     Rs = _inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
     Rl = _inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
     R = np.zeros((4 * nn, 4 * nn))
@@ -224,6 +228,27 @@ def _linear_parts(grid, points, body, soil, scheme):
     return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
             "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
             "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
+
+
+def _corner_pressure(grid, x, body, V, n, K_l, div, Nl, spread, flux=None):
+    """The corner projection's point pressures and liquid force, linear in U = (U_s, U_l)
+    (kernels._to_corners): nodal P = (sum V [-(K_l/n) N4 div u_s + K_l grad N4 . w]) /
+    sum N4 V, w = N_l (u_l - u_s) (in layers N_l (n_q / n) (u_l - u_s), ``flux`` the
+    points' x nodes' n_q / n: the Darcy flux over the point's n), held (0) on the drained
+    sides; p = N4 P at the points (npnt x 4 nn) and f_l = -sum N_l V grad(N4 P)
+    (2 nn x 4 nn)."""
+    ci = assembly.interpolation(grid, x, corner=True)
+    L, Lx, Ly = spread(ci.N), spread(ci.dNdx[..., 0]), spread(ci.dNdx[..., 1])
+    Z = np.zeros_like(Nl)
+    Nw = Nl if flux is None else Nl * flux
+    wx, wy = np.hstack([-Nw, Z, Nw, Z]), np.hstack([Z, -Nw, Z, Nw])
+    ds = np.hstack([div, np.zeros_like(div)])
+    num = L.T @ (-(K_l / n) * V[:, None] * ds) + K_l * (Lx.T @ (V[:, None] * wx)
+                                                         + Ly.T @ (V[:, None] * wy))
+    held = grid.constrained_mask({side: "x" for side in body.drained})[::2]
+    P = np.where(held, 0.0, _inv(L.T @ V))[:, None] * num
+    fl = -np.vstack([Nl.T @ (V[:, None] * (Lx @ P)), Nl.T @ (V[:, None] * (Ly @ P))])
+    return L @ P, fl
 
 
 def _point_material(soil, y) -> dict:

@@ -266,12 +266,12 @@ def test_from_mapping_equals_read_over_a_command_line(scene):
     the Params the command line gives (the command line with an override on top)."""
     from petsc4py import PETSc
 
-    from solver import options
+    from solver import options, scenefile
 
     path = str(REPO / "cases" / f"{scene}.opts")
     argv = ["-options_file", path, "-mpm_cells", "2,20", "-mpm_figures", "0"]
     expected = _from_command_line(argv)
-    words = {name[len("mpm_"):]: value for name, value in options._file_pairs(path)}
+    words = {name[len("mpm_"):]: value for name, value in scenefile.pairs(path)}
     before = PETSc.Options().getAll()
     got = options.from_mapping({**words, "cells": "2,20", "figures": "0"})
     assert PETSc.Options().getAll() == before
