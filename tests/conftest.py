@@ -409,3 +409,22 @@ def typed(p):
     return SimpleNamespace(soil=soil, body=Body.from_options(p),
                            loading=Loading.from_options(p),
                            scheme=Scheme.from_options(p, soil, min(p.Tv_report)))
+
+
+# -- the README ----------------------------------------------------------------------------
+def readme_section(heading: str, path=REPO / "README.md") -> str:
+    """The text of the README's section whose ``## `` heading starts with ``heading``, up to
+    the next ``## `` heading."""
+    text = Path(path).read_text()
+    start = text.index(f"\n## {heading}")
+    end = text.find("\n## ", start + 1)
+    return text[start:end if end >= 0 else len(text)]
+
+
+def readme_table(heading: str) -> list:
+    """The rows of the first table of the README's section ``heading``, each a list of its
+    cells (stripped; ``\\|`` stays in a cell), header and separator left out."""
+    import re
+
+    rows = [line for line in readme_section(heading).splitlines() if line.startswith("|")]
+    return [[cell.strip() for cell in re.split(r"(?<!\\)\|", line)[1:-1]] for line in rows[2:]]
