@@ -11,13 +11,13 @@ import re
 import struct
 
 import pytest
-from conftest import CASES, REPO, check_ok, readme_section, readme_table, run_cli, typed
+from conftest import (CASES, REPO, check_ok, check_readme_outputs, readme_outputs,
+                      readme_section, readme_table, run_cli, typed)
 
 README = REPO / "README.md"
 SECTIONS = ["Set-up", "The main job", "Scenes", "Outputs", "Options", "Exit codes",
             "Documentation", "Licence"]
 MAIN_JOB = ".venv/bin/python -m solver -options_file cases/eigen-q9.opts"
-FIGURE_FORMATS = ("png", "pdf", "svg")
 
 
 def _code_lines(section: str) -> list:
@@ -34,50 +34,15 @@ def _scene(name: str):
     return options.from_mapping(given)
 
 
-def _outputs() -> dict:
-    """{file name: its row's cells joined} of the README's outputs table."""
-    rows = readme_table("Outputs")
-    names = {}
-    for row in rows:
-        found = re.fullmatch(r"`([^`]+)`", row[0])
-        assert found, f"outputs table: the first cell names one file in backticks: {row[0]}"
-        names[found.group(1)] = " | ".join(row[1:])
-    return names
-
-
-def _table_name(name: str) -> str:
-    """The outputs table's name of a file a run wrote: a figure by its PNG name whatever its
-    format, a step's HDF5 file as points_<step>.h5."""
-    stem, _, ext = name.rpartition(".")
-    if ext in FIGURE_FORMATS:
-        return f"{stem}.png"
-    return re.sub(r"_[0-9]+[.]h5$", "_<step>.h5", name)
-
-
-def _check_files_in_outputs_table(folder):
-    """Every file in ``folder`` has a row of the outputs table; a CSV file's row names each
-    column of its header (in backticks)."""
-    table = _outputs()
-    written = sorted(p for p in folder.rglob("*") if p.is_file() and not p.name.startswith("."))
-    assert written
-    for path in written:
-        name = _table_name(path.name)
-        assert name in table, f"{path.name}: not in the README's outputs table"
-        if path.suffix == ".csv":
-            header = path.read_text().splitlines()[0].split(",")
-            missing = [col for col in header if f"`{col}`" not in table[name]]
-            assert not missing, f"{path.name}: columns {missing} not in its row"
-
-
 # -- the order and the set-up --------------------------------------------------------------
 def test_the_sections_come_in_the_order_a_newcomer_reads():
-    """What it is (above the first section, at most six lines), set-up, the main job, scenes,
+    """What it is (above the first section, at most four lines), set-up, the main job, scenes,
     outputs, options, exit codes, documentation."""
     text = README.read_text()
     headings = re.findall(r"^## (.*)$", text, flags=re.M)
     assert [next((s for s in SECTIONS if h.startswith(s)), h) for h in headings] == SECTIONS
     intro = text[:text.index("\n## ")].strip().splitlines()
-    assert intro[0].startswith("# ") and 1 <= len([l for l in intro[1:] if l.strip()]) <= 6
+    assert intro[0].startswith("# ") and 1 <= len([l for l in intro[1:] if l.strip()]) <= 4
 
 
 def test_the_set_up_is_two_commands_that_ci_runs():
@@ -173,7 +138,7 @@ def test_every_file_of_the_outputs_table_is_one_the_code_writes():
     """Each file the table names is named in solver/ (a figure by its name, the series'
     HDF5 files by the index they belong to), with content, units and sign convention."""
     source = _solver_sources()
-    for name, cells in _outputs().items():
+    for name, cells in readme_outputs().items():
         literal = name.rsplit(".", 1)[0] if name.endswith(".png") else name
         literal = "points.xdmf" if name == "points_<step>.h5" else literal
         assert f'"{literal}"' in source, f"{name}: no solver module writes it"
@@ -183,7 +148,7 @@ def test_every_file_of_the_outputs_table_is_one_the_code_writes():
 def test_every_file_the_main_job_writes_is_in_the_outputs_table(paper_run):
     res, out = paper_run("q9")
     check_ok(res)
-    _check_files_in_outputs_table(out)
+    check_readme_outputs(out)
 
 
 def test_every_file_a_column_run_writes_is_in_the_outputs_table(tmp_path):
@@ -194,7 +159,7 @@ def test_every_file_a_column_run_writes_is_in_the_outputs_table(tmp_path):
                    "-mpm_checkpoint_every", "200"], out, options_file="consolidation-m1-q4")
     check_ok(res)
     assert (out / "checkpoint.npz").is_file()
-    _check_files_in_outputs_table(out)
+    check_readme_outputs(out)
 
 
 # -- exit codes ------------------------------------------------------------------------------
