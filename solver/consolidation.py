@@ -262,7 +262,9 @@ def _target(p, comm) -> tuple:
     the summary says of it; (p, None) without one."""
     if math.isnan(p.target_error):
         return p, None
-    choice, lines, measured_tv = workprecision.pick(p, p.target_error, p.work_precision)
+    given = {k: getattr(p, k) for k in workprecision.PICKED if k in p.given}
+    choice, lines, measured_tv = workprecision.pick(workprecision.scene_signature(p), given,
+                                                    p.target_error, p.work_precision)
     p = workprecision.apply(p, choice)
     PETSc.Sys.Print("\n".join(lines), comm=comm)
     return p, {"target_pct": p.target_error, "picked": {k: choice[k] for k in

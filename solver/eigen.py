@@ -21,7 +21,7 @@ from . import analytic, figures, jacobi, layered, memory, output, provenance, si
 from .errors import InputError, InternalError, Interrupted, NumericalError, agree
 from .failure import RunFailure
 from .frequency import frequencies, slepc_solve
-from .plan import Outputs
+from .output import Outputs
 from .scene import Body, build, destroy
 from .soil import Ground
 
@@ -130,7 +130,7 @@ class EigenPlan:
     """An eigen analysis, as typed values: the ``body`` (scene.Body) made of ``ground``
     (soil.Ground: its layers, one Soil each), the ``nmodes`` lowest modes by ``solvers``
     (jacobi, slepc), Jacobi's tolerance ``jacobi_tol`` and ``jacobi_max_sweeps``, where the
-    results go (plan.Outputs) and the options as the provenance records them."""
+    results go (output.Outputs) and the options as the provenance records them."""
 
     body: Body
     ground: Ground

@@ -13,11 +13,24 @@ import os
 import re
 import tempfile
 from contextlib import contextmanager
+from dataclasses import dataclass
 from xml.sax.saxutils import escape, quoteattr, unescape
 
 import numpy as np
 
 from . import shapes
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """Where a run's results go: the ``folder``, the summary file, figures (on/off and their
+    formats). Both analyses' plans hold one."""
+
+    folder: str
+    summary: str
+    figures: bool = True
+    formats: str = "png"
+
 
 # VTK node order of each cell type, as lattice offsets (i, j) within the cell.
 _VTK_ORDER = {

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import analytic, layered
+from .output import Outputs
 from .scene import Body, Loading
 from .scheme import Scheme
 from .soil import Soil
@@ -221,17 +222,6 @@ class References:
     def ratio(self) -> float:
         """c2 / c_v: the compressible-water reference's time factor per T_v."""
         return self.c2 / self.c_v
-
-
-@dataclass(frozen=True)
-class Outputs:
-    """Where the results go: the ``folder``, the summary file, figures (on/off and their
-    formats)."""
-
-    folder: str
-    summary: str
-    figures: bool = True
-    formats: str = "png"
 
 
 @dataclass(frozen=True)

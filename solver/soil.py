@@ -11,8 +11,10 @@ A :class:`Ground` is such a sequence: horizontal layers, from the surface down, 
 :class:`Soil`, with the lookup of the layer at a height that the per-point material of the
 eigen model needs.
 
-This module is at the bottom of the package: it imports only :mod:`solver.analytic` and
-:mod:`solver.errors`.
+This module is at the bottom of the package: it imports only :mod:`solver.errors`. The
+coefficients it derives are written out here, not taken from :mod:`solver.analytic`: the
+references check the model, so the model does not build on them (tests/test_analytic.py
+holds the two equal).
 """
 
 from __future__ import annotations
@@ -22,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import analytic
 from .errors import InputError
 
 G_REF = 9.81  # m/s2: the gravity in which the hydraulic conductivity k is defined
@@ -132,21 +133,19 @@ class Soil:
     @property
     def c_v(self) -> float:
         """Terzaghi's consolidation coefficient k E_c / gamma_w (m2/s), incompressible water."""
-        return analytic.consolidation_coefficient(self.k, self.constrained_modulus,
-                                                  self.unit_weight_water)
+        return self.k * self.constrained_modulus / self.unit_weight_water
 
     @property
     def c2(self) -> float:
         """The diffusivity with compressible water, k / (gamma_w (1/E_c + n/K_l)) (m2/s)."""
-        return analytic.consistent_coefficient(self.k, self.constrained_modulus,
-                                               self.unit_weight_water, self.K_l,
-                                               self.porosity)
+        return self.k / (self.unit_weight_water * (1 / self.constrained_modulus
+                                                   + self.porosity / self.K_l))
 
     @property
     def undrained_ratio(self) -> float:
         """The share of a sudden load the pore water takes, (K_l/n) / (K_l/n + E_c) (-)."""
-        return analytic.undrained_pressure(1.0, self.constrained_modulus, self.K_l,
-                                           self.porosity)
+        stiffness = self.K_l / self.porosity
+        return stiffness / (stiffness + self.constrained_modulus)
 
     def wave_speeds(self, S: float = 1.0) -> dict:
         """Speeds c (drained), c1 (undrained) in m/s and the diffusivity c2 in m2/s, with the

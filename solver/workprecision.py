@@ -122,13 +122,15 @@ def _describe(run) -> str:
             f"{run['ppc']} x {run['ppc']} points per cell, dt_safety {run['dt_safety']:g}")
 
 
-def pick(p, target: float, path: str = ""):
+def pick(scene: dict, given: dict, target: float, path: str = ""):
     """The cheapest measured run (fewest material points x steps) with error <= ``target``
-    (%), the lines that explain the choice and the T_v the data measured. InputError when
-    the data do not fit the scene or no measured run meets the target."""
+    (%), the lines that explain the choice and the T_v the data measured, for the run of
+    :func:`scene_signature` ``scene`` that gives the options ``given`` ({name: value} of
+    PICKED's that its command line or scene sets). InputError when the data do not fit the
+    scene or no measured run meets the target."""
     path = path or DEFAULT
     data = load(path)
-    bad = _mismatch(data["scene"], scene_signature(p))
+    bad = _mismatch(data["scene"], scene)
     if bad:
         key, want, have = bad
         raise InputError(f"-mpm_target_error: the work-precision data ({path}) were measured "
@@ -169,10 +171,10 @@ def pick(p, target: float, path: str = ""):
         near = min(cheaper, key=lambda r: r["measure"])
         lines.append(f"  cheaper runs miss it: the best of them, {_describe(near)}, "
                      f"measured {near['measure']:.2f} % at {near['cost']:.3g} point-steps")
-    given = [k for k in PICKED if k in p.given and getattr(p, k) != _value(choice, k)]
-    if given:
+    overridden = [k for k in PICKED if k in given and given[k] != _value(choice, k)]
+    if overridden:
         lines.append("  this overrides " + ", ".join(
-            f"-mpm_{k} {_text(getattr(p, k))}" for k in given))
+            f"-mpm_{k} {_text(given[k])}" for k in overridden))
     return choice, lines, tuple(data["Tv"])
 
 

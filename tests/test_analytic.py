@@ -86,6 +86,23 @@ def test_compressible_water_variant():
     assert analytic.terzaghi(0.5, 0.02 * c2 / cv, H, p0) < analytic.terzaghi(0.5, 0.02, H)
 
 
+def test_the_soils_coefficients_are_the_closed_forms():
+    """solver.soil writes its coefficients out (the model does not build on the references):
+    c_v, c2 and the undrained share of a load agree with the closed forms, for a soil whose
+    water's compressibility shows (n E_c / K_l = 0.054)."""
+    from solver.soil import G_REF, Soil, constrained_modulus
+
+    soil = Soil(E=20e6, nu=0.3, rho_s=2650.0, porosity=0.4, k=1e-5, rho_l=1000.0, K_l=200e6)
+    E_c, gw = constrained_modulus(20e6, 0.3), 1000.0 * G_REF
+    assert soil.c_v == pytest.approx(analytic.consolidation_coefficient(1e-5, E_c, gw),
+                                     rel=1e-14)
+    assert soil.c2 == pytest.approx(analytic.consistent_coefficient(1e-5, E_c, gw, 200e6, 0.4),
+                                    rel=1e-14)
+    assert soil.undrained_ratio == pytest.approx(
+        analytic.undrained_pressure(1.0, E_c, 200e6, 0.4), rel=1e-14)
+    assert soil.c2 < soil.c_v and 0.5 < soil.undrained_ratio < 1
+
+
 def test_long_times_are_the_first_term():
     """For Tv >= 2 the second term is below 1e-18 of the first (exp(-2 pi^2 Tv) / 3): the
     result is the first term to round-off, relative as well as absolute. Round-off here is

@@ -174,6 +174,18 @@ def test_from_options_matches_a_body():
         biot.from_options(scene_options(load_ramp=1.0))
 
 
+def test_the_reference_knows_the_scenes_sides_and_supports():
+    """biot states its sides and support choices itself (the references sit below the
+    options): they must be the scene's and the command line's."""
+    from solver import options, scene
+
+    assert biot.SIDES == scene.SIDES
+    assert biot.BC_CHOICES == options.BC_CHOICES
+    assert set(biot.DEFAULT_BCS) == set(scene.SIDES)
+    assert all(biot.DEFAULT_BCS[side] == getattr(options.from_mapping({}), f"bc_{side}")
+               for side in scene.SIDES)
+
+
 BAD = [
     (dict(layers=(0.5, 0.6)), "sum to"),
     (dict(layers=(0.3, 0.7), E=(1e7, 2e7)), "inside a cell"),
