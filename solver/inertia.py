@@ -41,11 +41,12 @@ A run warns when either estimate exceeds VISIBLE at its own S.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
-from . import timestep
-from .errors import InputError
+from . import frequency, timestep
+from .errors import InputError, NumericalError
 
 TOLERANCE = 0.002   # inertia error that -mpm_mass_scaling auto allows (fraction of q)
 VISIBLE = 0.01      # inertia error that biases a comparison with Terzaghi visibly
@@ -69,36 +70,81 @@ def decay(alpha: float, zeta: float) -> tuple:
     return r, stretch
 
 
-def _times(soil, H: float, first_tv: float):
-    """(T_w, T_c, t_r): wave period, consolidation time, earliest report time (s) of a
-    column of height H (m) reported first at T_v = ``first_tv``."""
+def laterally_uniform(body, loading) -> bool:
+    """Whether the scene is a column that moves in y alone: rollers on both sides, the water
+    out through the top or the base only, a load (if any) over the whole top. A sudden load
+    then excites the undrained compression wave alone."""
+    bcs = body.supports
+    return (bcs.get("left") == "x" and bcs.get("right") == "x"
+            and set(body.drained) <= {"top", "bottom"} and not loading.partial(body.size[0]))
+
+
+def slowest_period(comm, body, soil, loading) -> float:
+    """The period (s, physical inertia) of the slowest wave the scene carries, to which
+    ``auto`` and the fast-part damper are tuned: NaN for a laterally uniform column (its
+    undrained compression wave 4H/c1); else 1/f1, f1 (Hz) the lowest mode of the body's
+    drained skeleton with the saturated density (SLEPc). The water only stiffens the
+    skeleton, so every undrained mode, shear or compression, lies at or above f1, and a
+    body that drains within a period vibrates at the drained modes themselves (collective)."""
+    if laterally_uniform(body, loading):
+        return math.nan
+    try:
+        f1 = frequency.fundamental_frequency(comm, body, soil, "slepc")
+    except NumericalError:
+        # One point per cell makes the consistent mass singular: the plain FE model.
+        gauss = replace(body, placement="gauss", ppc=2 if body.element == "q4" else 3)
+        f1 = frequency.fundamental_frequency(comm, gauss, soil, "slepc")
+    return 1.0 / f1
+
+
+def _times(soil, H: float, first_tv: float, period: float = math.nan):
+    """(T, T_c, t_r): the slowest wave's period (``period``, or NaN for the column's
+    undrained 4H/c1), the consolidation time H^2 / c2 and the earliest report time (s) of
+    a body of height H (m) reported first at T_v = ``first_tv``."""
     s = soil.wave_speeds()
-    return 4 * H / s["c1"], H * H / s["c2"], first_tv * H * H / soil.c_v
+    T = 4 * H / s["c1"] if math.isnan(period) else period
+    return T, H * H / s["c2"], first_tv * H * H / soil.c_v
+
+
+def _shear_period(soil, H: float) -> float:
+    """4 H / c_s (s): the period of a shear wave across the layers (their travel times),
+    c_s = sqrt(G / rho) with the saturated density."""
+    layers = soil.soils
+    depths = getattr(soil, "thickness", (H,))
+    return 4 * sum(d * math.sqrt(s.density * 2 * (1 + s.nu) / s.E)
+                   for d, s in zip(depths, layers))
 
 
 def regime(soil, H: float, first_tv: float, alpha: float, zeta: float,
-           S: float = 1.0) -> dict:
-    """The inertia regime of a column of ``soil``, height H (m), first reported at T_v
+           S: float = 1.0, period: float = math.nan) -> dict:
+    """The inertia regime of a body of ``soil``, height H (m), first reported at T_v
     ``first_tv``, under local damping ``alpha`` and fast-part damping ``zeta``, with mass
-    scaling S: time scales (s), Pi, Pi_S, the wave periods before the earliest report,
-    both error estimates (fractions of q)."""
-    T_w, T_c, t_r = _times(soil, H, first_tv)
+    scaling S; ``period`` the slowest wave's period (s, :func:`slowest_period`; NaN: the
+    column's 4H/c1): time scales (s), Pi, Pi_S, the wave periods before the earliest
+    report, both error estimates (fractions of q)."""
+    T_w, T_c, t_r = _times(soil, H, first_tv, period)
     Pi = T_c / T_w
     r, stretch = decay(alpha, zeta)
     periods = t_r / (T_w * math.sqrt(S) * stretch)
-    return {"wave_period_s": T_w, "consolidation_time_s": T_c, "Pi": Pi,
+    speeds = soil.wave_speeds()
+    column = math.isnan(period)
+    return {"wave": "undrained compression 4H/c1" if column else "the body's lowest mode 1/f1",
+            "wave_period_s": T_w, "undrained_period_s": 4 * H / speeds["c1"],
+            "drained_period_s": 4 * H / speeds["c"], "shear_period_s": _shear_period(soil, H),
+            "consolidation_time_s": T_c, "Pi": Pi,
             "mass_scaling": S, "Pi_S": Pi / math.sqrt(S), "wave_period_scaled_s":
             T_w * math.sqrt(S), "first_report_Tv": first_tv, "first_report_s": t_r,
             "periods_to_first_report": periods, "wave_error": r ** periods,
             "drag_lag_error": LAG * S / (soil.drag_rate() * t_r),
             "tolerance": TOLERANCE, "visible": VISIBLE, "Pi_S_min": PI_MIN,
             "criterion": "wave error r^(t_r / T_d) (r the decay per damped period T_d of "
-                         "the scaled wave's fundamental mode, local or fast-part damping) and "
+                         "the scaled slowest wave's mode, local or fast-part damping) and "
                          "drag lag "
                          "2 S / (lambda t_r) at the earliest report time t_r, in units of q"}
 
 
-def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float) -> float:
+def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float,
+                period: float = math.nan) -> float:
     """The largest S whose two inertia errors stay within TOLERANCE (module docstring);
     arguments as :func:`regime`'s."""
     r, stretch = decay(alpha, zeta)
@@ -106,7 +152,7 @@ def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float) -> f
         raise InputError("-mpm_mass_scaling auto: needs damping (-mpm_fast_damping or "
                          "-mpm_damping > 0), without which the undrained wave does not decay; "
                          "give a factor S")
-    T_w, T_c, t_r = _times(soil, H, first_tv)
+    T_w, T_c, t_r = _times(soil, H, first_tv, period)
     periods = math.log(1 / TOLERANCE) / math.log(1 / r)
     wave = (t_r / (T_w * stretch * periods)) ** 2   # t_r is `periods` periods
     drag = TOLERANCE * soil.drag_rate() * t_r / LAG
@@ -114,13 +160,14 @@ def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float) -> f
     return float(f"{min(wave, drag, floor):.3g}")   # 3 digits: the same on every rank count
 
 
-def scaling(choice: str, soil, H: float, first_tv: float, alpha: float, zeta: float) -> float:
+def scaling(choice: str, soil, H: float, first_tv: float, alpha: float, zeta: float,
+            period: float = math.nan) -> float:
     """The factor S of ``-mpm_mass_scaling`` ``choice`` (none: 1; auto: :func:`auto_factor`
     with the other arguments; else the number)."""
     if choice == "none":
         return 1.0
     if choice == "auto":
-        return auto_factor(soil, H, first_tv, alpha, zeta)
+        return auto_factor(soil, H, first_tv, alpha, zeta, period)
     return float(choice)
 
 
@@ -130,8 +177,7 @@ def warning(reg: dict):
     worst = max(reg["wave_error"], reg["drag_lag_error"])
     if worst <= VISIBLE:
         return None
-    what = ("the undrained wave" if reg["wave_error"] >= reg["drag_lag_error"]
-            else "the drag lag")
+    what = (reg["wave"] if reg["wave_error"] >= reg["drag_lag_error"] else "the drag lag")
     return (f"WARNING: inertia biases p at T_v = {reg['first_report_Tv']:g} by about "
             f"{100 * worst:.2g} % of q ({what}: {reg['periods_to_first_report']:.3g} wave "
             f"periods by then, Pi_S = {reg['Pi_S']:.3g}); -mpm_mass_scaling auto keeps it "
@@ -140,7 +186,13 @@ def warning(reg: dict):
 
 def describe(reg: dict) -> str:
     """Lines for the run's banner."""
-    return (f"Inertia: wave period 4H/c1 = {reg['wave_period_s']:.3g} s, consolidation time "
+    if reg["wave"].startswith("undrained"):     # a column: the one wave a load excites
+        wave = f"wave period 4H/c1 = {reg['wave_period_s']:.3g} s"
+    else:
+        wave = (f"slowest wave {reg['wave']} = {reg['wave_period_s']:.3g} s (4H/c1 "
+                f"{reg['undrained_period_s']:.3g} s, drained 4H/c {reg['drained_period_s']:.3g}"
+                f" s, shear 4H/c_s {reg['shear_period_s']:.3g} s)")
+    return (f"Inertia: {wave}, consolidation time "
             f"H^2/c2 = {reg['consolidation_time_s']:.4g} s, Pi = {reg['Pi']:.4g}; mass "
             f"scaling S = {reg['mass_scaling']:.4g} (Pi_S = {reg['Pi_S']:.4g}): "
             f"{reg['periods_to_first_report']:.3g} periods to T_v = "
@@ -182,7 +234,7 @@ def check_feasible(p, scheme, soil, body):
     first_tv = min(p.Tv_report)
     if p.mass_scaling != "auto" and decay(scheme.damping, scheme.fast_damping)[0] < 1:
         S_auto = auto_factor(soil, body.height, first_tv, scheme.damping,
-                                     scheme.fast_damping)
+                             scheme.fast_damping, scheme.wave_period)
         ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
                      + f"-mpm_mass_scaling auto (S = {S_auto:.3g})", steps("implicit", S_auto)))
     if not any(n <= MAX_STEPS for _, n in ways):
