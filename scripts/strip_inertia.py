@@ -8,15 +8,15 @@ inertia error, and what is measured.
                           [--bound] [-- extra -mpm_ options]
 
 For every grid, element and mass scaling: the run of cases/consolidation-<scene>.opts to the
-last report time, and beside it the FE (Q9/Q4 on 32 x 16 cells, TR-BDF2) of the same body:
+last report time, and beside it the FE (Q9/Q4 on 64 x 32 cells, TR-BDF2) of the same body:
 at each report time the settlement under the load (the mean over the loaded part of the
-top) against the FE's (%), the RMS and the largest |p - p_FE| over every point (% of q); the
-swing, the largest peak-to-peak change of the settlement's error within one (scaled) period
-of the slowest wave after the first physical one (%); the S chosen, the run's estimated
-wave error at the earliest report (% of q) and its wall time. ``--bound`` adds, for each
-run, a run with S / 100 and the same report times (the inertia-free answer of the same
-discretisation): the measured inertia error at each report, max |dp| over the points (% of
-q) and |ds| / s (%), beside the estimate.
+top) against the FE's (%), the RMS and the largest |p - p_FE| over every point (% of q);
+the swing, the largest peak-to-peak change of the settlement's error within one (scaled)
+period of the slowest wave after the first physical one and the first report (%); the S
+chosen, the run's estimated wave error at the earliest report (% of q) and its wall time.
+``--bound`` adds, for each run, a run with S / 100 and the same report times (the
+inertia-free answer of the same discretisation): the measured inertia error at each
+report, max |dp| over the points (% of q) and |ds| / s (%), beside the estimate.
 
 A 16 x 8 Q4 strip to T_v = 0.1 takes about 10 s on one core; the layered one (64 x 32
 cells, 8,192 points) about 10 minutes.
@@ -37,7 +37,7 @@ if __name__ == "__main__":
 
     use_petsc_python()
 
-FE_CELLS = (32, 16)
+FE_CELLS = (64, 32)   # within 0.05 % of 128 x 64 in the settlement at T_v = 0.01
 REFERENCE = 100.0     # --bound: the inertia-free run has S / REFERENCE
 
 
@@ -93,7 +93,7 @@ def compare(s, folder, reports) -> dict:
     rows, prof = series(folder)
     t_rep = [prof[tv][0, 1] for tv in reports]
     # The FE's settlement on a geometric grid of times, interpolated in sqrt(t) (smooth).
-    grid = np.geomspace(rows[0, 0], rows[-1, 0], 240)
+    grid = np.geomspace(rows[0, 0], rows[-1, 0], 120)
     times = np.concatenate([grid, t_rep])
     xy = prof[reports[0]][:, 2:4]
     fe = biot.solve(PETSc.COMM_SELF, fe_body(o), times, xy, cells=FE_CELLS)
@@ -115,11 +115,12 @@ def compare(s, folder, reports) -> dict:
 
 def swing(t, error, regime) -> float:
     """The largest peak-to-peak change of ``error`` at times ``t`` (s) within one scaled
-    period of the slowest wave, after its first physical period."""
+    period of the slowest wave, after its first physical period and the first report (auto
+    lets the wave die out by then, not before)."""
     import numpy as np
 
     window = regime["wave_period_scaled_s"]
-    later = t >= regime["wave_period_s"]
+    later = t >= max(regime["wave_period_s"], regime["first_report_s"])
     t, e = t[later], error[later]
     worst = 0.0
     for j in range(len(t)):
