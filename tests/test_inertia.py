@@ -342,6 +342,36 @@ def _fe(s, times, xy):
     return r.settlement, r.pressure
 
 
+def test_slowest_wave_of_columns_and_bodies():
+    """A column that moves in y alone keeps its undrained 4H/c1 (NaN); a strip footing,
+    drainage through a side or walls that hold the sides make it a body, whose slowest wave
+    is its lowest drained mode: on the 2 m x 1 m block with rollers on the sides and a fixed
+    base, the drained column's compression mode c / (4H) (16.89 Hz, Q4 16 x 8: 16.93 Hz)."""
+    from solver import inertia
+    from solver.scene import Body, Loading
+    from solver.soil import Soil
+
+    soil = Soil()
+    column = Body(cells=(16, 8), size=(2.0, 1.0))
+    strip = Loading(extent=(0.0, 0.5))
+    assert inertia.laterally_uniform(column, Loading())
+    assert inertia.laterally_uniform(column, Loading(extent=(0.0, 2.0)))
+    assert math.isnan(inertia.slowest_period(PETSc.COMM_WORLD, column, soil, Loading()))
+    assert not inertia.laterally_uniform(column, strip)
+    side = Body(cells=(16, 8), size=(2.0, 1.0), drained=("top", "right"))
+    walls = Body(cells=(16, 8), size=(2.0, 1.0), bcs=(("left", "xy"), ("right", "xy"),
+                                                        ("bottom", "xy"), ("top", "none")))
+    assert not inertia.laterally_uniform(side, Loading())
+    assert not inertia.laterally_uniform(walls, Loading())
+    T = inertia.slowest_period(PETSc.COMM_WORLD, column, soil, strip)
+    c = math.sqrt(soil.constrained_modulus / soil.density)
+    assert T == pytest.approx(4.0 / c, rel=5e-3) and T > 6 * 4.0 / soil.wave_speeds()["c1"]
+    # One point per cell: a singular consistent mass, which SLEPc's shift-invert takes.
+    one = Body(cells=(16, 8), size=(2.0, 1.0), ppc=1)
+    assert inertia.slowest_period(PETSc.COMM_WORLD, one, soil, strip) == pytest.approx(T,
+                                                                                    rel=5e-3)
+
+
 def test_strip_auto_keeps_its_promise(cli, tmp_path):
     """The strip footing (2 m x 1 m, half a 1 m wide footing, Q4 16 x 8 cells). Its
     slowest wave is the body's lowest mode: the drained column's compression mode c / (4H),
