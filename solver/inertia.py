@@ -109,8 +109,9 @@ def slowest_period(comm, body, soil, loading) -> float:
     if laterally_uniform(body, loading):
         return math.nan
     # SLEPc: its shift-invert about 0 factors K alone, so one point per cell (a singular
-    # consistent mass, where Jacobi fails) is no obstacle.
-    return 1.0 / frequency.fundamental_frequency(comm, body, soil, "slepc")
+    # consistent mass, where Jacobi fails) is no obstacle. 6 digits: the last ones of an
+    # iterative solve vary with the number of ranks, and S and the damper should not.
+    return float(f"{1.0 / frequency.fundamental_frequency(comm, body, soil, 'slepc'):.6g}")
 
 
 def _times(soil, H: float, first_tv: float, period: float = math.nan):
