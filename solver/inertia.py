@@ -52,7 +52,8 @@ Pi_S = 435), so ``auto`` also keeps Pi_S >= PI_MIN = 300.
 Measured (tests/test_inertia.py, docs/method.md, scripts/strip-inertia): on the columns the
 wave estimate is conservative by up to a factor 3 when the oscillation has decayed far, and
 close near the tolerance; on the strip footing, against the same run with S / 100, by a
-factor 6 to 20 (its largest pressure error starts near 0.2 q, not q).
+factor 6 (S = 1) to 70 (auto): its largest pressure error starts near 0.2 q, not q, and its
+slowest mode is the undrained one, above f1, which the damper takes out faster.
 ``auto`` depends on the earliest report time: reported later, a run gets a larger S; since
 the bound holds at every later time, the answer at any report moves by less than twice
 TOLERANCE when the report times move (the strip at T_v = 0.05 and 0.1: 4 digits).
