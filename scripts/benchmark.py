@@ -126,7 +126,7 @@ def fixed_dt(p, grid) -> float:
     return min(1e-6, 0.25 * spacing / Soil.from_options(p).wave_speeds()["c1"])
 
 
-def time_steps(model, p, dt: float, cfg: dict, mpi):
+def time_steps(model, p, dt: float, cfg: dict, mpi, flip: float = 1.0):
     """Wall and CPU seconds of each of ``cfg['repeats']`` runs of ``cfg['steps']`` steps
     (step + migrate_if_needed, as the time loop calls them), after ``cfg['warmup']``
     untimed steps; both the slowest rank's. ``dt`` in s."""
@@ -134,7 +134,7 @@ def time_steps(model, p, dt: float, cfg: dict, mpi):
 
     def run(nsteps):
         for _ in range(nsteps):
-            model.step(dt, 1.0, p.damping, p.flip)
+            model.step(dt, 1.0, p.damping, flip)
             model.migrate_if_needed((0, 0))
 
     run(cfg["warmup"])
@@ -213,7 +213,7 @@ def worker(cfg: dict) -> None:
     base = maxrss()
     grid, points, model, setup = build_model(comm, p, scheme)
     dt = fixed_dt(p, grid)
-    times, cpu = time_steps(model, p, dt, cfg, mpi)
+    times, cpu = time_steps(model, p, dt, cfg, mpi, scheme.flip)
     finite = all_finite(points, mpi)
     peak = mpi.gather(maxrss(), root=0)      # the step's, before the report's temporaries
     report_s = time_reports(points, comm, p)

@@ -5,7 +5,7 @@ Exit codes:
 - 0 success;
 - 2 bad input: an option, a scene file, an output folder that cannot be written (nothing
   computed, nothing written);
-- 3 numerical failure (Jacobi or SLEPc not converged, a mass that is not positive definite,
+- 3 numerical failure (Jacobi, a KSP or an EPS not converged, a mass that is not positive definite,
   a blown-up run): the summary says what was computed and where it failed;
 - 4 stopped by SIGTERM/SIGINT at any point: one line naming the stage, the summary
   (``"completed": false``, the ``error`` with its ``stage``) once the output folder is
@@ -44,7 +44,23 @@ def _petsc_argv(argv) -> list:
     ours = [i for i, a in enumerate(argv) if a in HELP]
     asked = [i for i in ours if argv[i + 1:i + 2] == ["petsc"]]
     drop = {i + 1 for i in asked} if asked else set(ours)
-    return [a for i, a in enumerate(argv) if i not in drop]
+    return _files_first([a for i, a in enumerate(argv) if i not in drop])
+
+
+def _files_first(argv) -> list:
+    """``argv`` with its ``-options_file`` / ``-options_file_yaml`` pairs moved to the front
+    (after the program name), in their order. PETSc reads a file where it stands on the
+    command line, so a file after an option would override it; the command line wins over
+    the scene wherever it stands (as :func:`options.command_line` does for a hosted run)."""
+    files, rest, i = [], [], 1
+    while i < len(argv):
+        if argv[i] in ("-options_file", "-options_file_yaml") and i + 1 < len(argv):
+            files += argv[i:i + 2]
+            i += 2
+        else:
+            rest.append(argv[i])
+            i += 1
+    return argv[:1] + files + rest
 
 
 def _options_files(argv):
@@ -74,7 +90,7 @@ def _scan_options_files(argv) -> tuple:
             return origins, _fail(f"{flag} {path}: no such file", 2, _rank())
         if flag == "-options_file":
             from .errors import InputError
-            from .options import scan_file
+            from .scenefile import scan_file
 
             try:
                 origins.update(scan_file(path))
@@ -95,10 +111,17 @@ def main(argv=None, comm=None) -> int:
     SIGTERM and SIGINT stop it at any point with one line and exit code 4
     (:mod:`solver.signals`), from the start, before PETSc runs, on.
     """
-    from . import signals
+    if "petsc4py.PETSc" not in sys.modules:
+        from .launch import missing
+
+        problem = missing()       # a Python without PETSc (a pyenv's): one line, not a trace
+        if problem:
+            return _fail(problem, 2, _rank())
+    from . import clock, signals
     from .errors import Interrupted
 
-    with signals.watched():
+    # A process of its own (PETSc not yet started) counts its wall time from its own start.
+    with signals.watched(), clock.command(fresh="petsc4py.PETSc" not in sys.modules):
         signals.stage("start-up")
         try:
             return _main(list(sys.argv if argv is None else argv), comm)
@@ -224,7 +247,9 @@ def _help(options, origins, comm) -> int:
         values = checkpoint.read_options(origins)
     except InputError as exc:
         values, problem = options.given_text(), f"\nNote: {exc}; this command would stop there"
-    text = ("Options of the MPM solver (SI units), with the values this command would use:\n"
+    text = ("Options of the MPM solver (SI units), with the values this command would use "
+            "(an option on the command line wins over the -options_file scenes, before or "
+            "after them):\n"
             + options.table(values=values) + problem
             + "\nPETSc's and SLEPc's own options (-log_view, -eps_type, ...): -help petsc")
     # Line by line: PETSc formats one print in an 8 KiB buffer, and the table is longer.

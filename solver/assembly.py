@@ -27,13 +27,15 @@ class Interpolation:
     cells: tuple        # (cx, cy), each (np,)
 
 
-def interpolation(grid, x, blended: bool = False) -> Interpolation:
+def interpolation(grid, x, blended: bool = False, corner: bool = False) -> Interpolation:
     """Shape functions and their gradients at points x (np, 2), in m; with ``blended`` those
-    of the blended basis N_hat (:func:`solver.shapes.blended`)."""
+    of the blended basis N_hat (:func:`solver.shapes.blended`); with ``corner`` the bilinear
+    functions of the cell's corner nodes, zero on its other nodes (the blend of weight 0:
+    the pressure space of ``-mpm_pressure_projection corner``)."""
     cx, cy, xi, eta = grid.locate(x)
     N, dN = shapes.evaluate(grid.element, xi, eta)
-    if blended:
-        N, dN = shapes.blended(grid.element, N, dN, xi, eta)
+    if blended or corner:
+        N, dN = shapes.blended(grid.element, N, dN, xi, eta, 0.0 if corner else shapes.BLEND)
     dNdx = dN * np.array([2.0 / grid.h[0], 2.0 / grid.h[1]])
     i, j = grid.cell_nodes(cx, cy)
     nodes = grid.local_node(i, j)

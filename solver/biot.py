@@ -59,7 +59,7 @@ import scipy.sparse as sp
 from petsc4py import PETSc
 
 from . import assembly, shapes
-from .errors import InputError, NumericalError
+from .errors import InputError, NumericalError, check_converged
 from .grid import Grid
 from .options import BC_CHOICES
 from .soil import G_REF, constrained_modulus, elasticity
@@ -372,9 +372,7 @@ class _Solver:
         b[fixed] = 0.0
         self.b.array = b
         self.ksp.solve(self.b, self.x)
-        if self.ksp.getConvergedReason() < 0:
-            raise NumericalError(f"biot: LU solve failed (reason "
-                                 f"{self.ksp.getConvergedReason()})")
+        check_converged(self.ksp, "biot: the step's solve (options -biot_ksp_*, -biot_pc_*)")
         return self.d * self.x.array
 
     def _release(self):

@@ -148,6 +148,19 @@ def read_options(origins, db=None):
     return p
 
 
+def check_end(path, state: dict, refs, Tv_end: float) -> None:
+    """InputError when -mpm_Tv_end ends the run before the step of the checkpoint ``path``
+    (its ``state``): a restart goes on from there, and would report a run it never made
+    as completed. ``refs``: the scene's :class:`plan.References` (T_v and time)."""
+    step, dt = state["step"], state["dt"]
+    if int(math.ceil(refs.time(Tv_end) / dt - 1e-9)) < step:
+        t = step * dt
+        raise InputError(f"-mpm_Tv_end {Tv_end:g}: before the state of -mpm_restart {path} "
+                         f"(step {step}, t = {t:.6g} s, T_v = {refs.time_factor(t):.4g}); a "
+                         "restart goes on from there: give a later -mpm_Tv_end, or run "
+                         "anew without -mpm_restart")
+
+
 def write(path, comm, points, state: dict, sig: str, run: dict):
     """Gather the points on rank 0 and write ``path`` (collective); ``sig`` the run's
     :func:`signature`, ``run``: {"id": the run id, "options": :func:`recorded`}."""

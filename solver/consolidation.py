@@ -22,16 +22,17 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from . import (checkpoint, frequency, inertia, memory, output, provenance, reporting, scene,
-               settlement, signals, static, timestep, workprecision)
+from . import (checkpoint, clock, fe_reference, frequency, inertia, memory, output,
+               plan as plans, provenance, reporting, scene, settlement, signals, static,
+               timestep, workprecision)
 from .checkpoint import RunState
-from .errors import InputError, Interrupted, NumericalError, agree_code, entry
+from .errors import InputError, Interrupted, NotConverged, NumericalError, agree_code, entry
 from .failure import RunFailure
 from .inertia import MAX_STEPS
 from .plan import Limits, Outputs, Plan, References, Schedule
 from .scene import Body, Loading
-from .scheme import Scheme
-from .soil import Ground
+from .scheme import Scheme, lateral_drainage_notes
+from .soil import Ground, check_count
 from .twophase import TwoPhase, point_fields
 
 
@@ -43,6 +44,11 @@ def _validate(p) -> tuple:
     if not math.isnan(p.monitor_height) and not 0 <= p.monitor_height <= H:
         raise InputError(f"-mpm_monitor_height {p.monitor_height}: outside the body "
                          f"(0 to {H} m)")
+    if p.monitor and not math.isnan(p.monitor_height):
+        raise InputError("-mpm_monitor_height: -mpm_monitor x,y places the monitor (give one)")
+    if p.monitor and not (0 <= p.monitor[0] <= p.size[0] and 0 <= p.monitor[1] <= H):
+        raise InputError(f"-mpm_monitor {p.monitor[0]:g},{p.monitor[1]:g}: outside the body "
+                         f"(0 <= x <= {p.size[0]:g}, 0 <= y <= {H:g} m)")
     late = [t for t in p.Tv_report if t > p.Tv_end * (1 + 1e-12)]
     if late and "Tv_report" in p.given and "Tv_report" not in p.from_file:
         raise InputError(f"-mpm_Tv_report {late[0]}: after -mpm_Tv_end {p.Tv_end}")
@@ -70,6 +76,7 @@ def _validate(p) -> tuple:
     if p.load_extent and not 0 <= p.load_extent[0] < p.load_extent[1] <= W:
         raise InputError(f"-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}: "
                          f"outside the top (0 <= x0 < x1 <= {W:g} m)")
+    Loading.from_options(p).check_extent(Body.from_options(p))
     if p.load != 0 and "y" in p.bc_top:
         # The support would carry the load: nothing would settle, and U_p = 1 would be read
         # as a finished consolidation.
@@ -78,28 +85,15 @@ def _validate(p) -> tuple:
     if "none" in p.drained and len(p.drained) > 1:
         raise InputError(f"-mpm_drained {','.join(p.drained)}: none means no drained side; "
                          "give it alone")
-    _check_lateral_drainage(p.element, p.drained)
+    notes += lateral_drainage_notes(p.element, p.drained, p.pressure_projection)
+    fe_reference.check_cells(p.fe_cells, p.layers, H)
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
     Ground.from_options(p)        # checks -mpm_layers and the per-layer values
+    check_count("K0", p.K0, p.layers)
     return p, notes
-
-
-def _check_lateral_drainage(element: str, drained):
-    """InputError for quadratic cells drained through a side: water flowing across the
-    column excites a pressure mode inside each cell that the discrete gradient does not see
-    (the points' pressures alternate within a cell and never drain). Measured on a 1.2 m
-    block drained left and right, 8 x 8 cells (the node spacing of Q4 16 x 16): Q9 +5 / -9 %
-    of q in every cell at T_v = 0.5, 10-15 % off Q4 16 x 16; Q8 likewise (7-25 %); the
-    nodal projection leaves Q9 +-3 % and blows Q8 up; Q4 converges (docs/method.md)."""
-    lateral = [side for side in ("left", "right") if side in drained]
-    if element != "q4" and lateral:
-        raise InputError(
-            f"-mpm_element {element}: quadratic cells drained through a side (-mpm_drained "
-            f"{','.join(drained)}) keep a spurious pressure mode in every cell (10-15 % of q "
-            "off; docs/method.md); use q4")
 
 
 def run(p, comm) -> int:
@@ -116,6 +110,7 @@ def run(p, comm) -> int:
     The PETSc objects the run made are destroyed on the way out, after the failure
     handling (its checkpoint needs the points)."""
     ctx = RunFailure(comm)
+    ctx.clock = clock.Phases()
     try:
         return _handled(comm, ctx, lambda: _run(_set_up(p, comm, ctx), comm, ctx))
     finally:
@@ -173,13 +168,15 @@ def _run(setup, comm, ctx) -> int:
     ctx.cleanup = [lambda: np.seterr(**fp)]
     # While stepping a signal only marks itself: the loop stops after the step, where the
     # ranks agree and the points hold a whole state for the checkpoint.
+    ctx.clock.mark("set-up")
     with signals.deferred("stepping") as stop:
         ctx.phase = "stepping"
         pace = _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall)
+    ctx.clock.mark("stepping")
     np.seterr(**fp)
     signals.stage("reporting")
     ctx.phase, ctx.cleanup = "reporting", []   # no collective from here on: ranks can agree
-    return _finish(plan, reports, state, summary, pace, comm, t_wall)
+    return _finish(plan, reports, state, summary, pace, comm, (t_wall, ctx.clock))
 
 
 def _set_up(p, comm, ctx) -> tuple:
@@ -207,6 +204,9 @@ def _set_up(p, comm, ctx) -> tuple:
     signals.stage("set-up: the time scheme and mass scaling")
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
     soil = ground.as_material()
+    refs = References.of(soil, loading, body)
+    if restart is not None:            # an end before the checkpoint: refused up front
+        checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
                                  inertia.slowest_period(comm, body, soil, loading))
     memory.check(body)             # a model that does not fit says so first
@@ -221,7 +221,8 @@ def _set_up(p, comm, ctx) -> tuple:
         scheme = scheme.with_mass_scaling(state.mass_scaling)
     else:
         state = RunState(mass_scaling=scheme.mass_scaling)
-    height = _monitor_height(points, body.height, p.monitor_height, comm.tompi4py())
+    monitor = _place_monitor(points, body, loading, p.monitor, p.monitor_height,
+                             comm.tompi4py())
     if restart is not None:
         checkpoint.scatter(points, grid, restart[0], restart[1],
                            "x0" if scheme.kinematics == "small" else "x")
@@ -236,21 +237,23 @@ def _set_up(p, comm, ctx) -> tuple:
     limits = _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
                        p.allow_unstable)
     signals.stage("set-up: the step counts")
-    refs = References.of(soil, loading, body)
     if not refs.available and not loading.self_weight:
         signals.stage("set-up: the static references")
         refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))
     schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
                         p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
                         p.checkpoint_seconds, p.progress)
+    signals.stage("set-up: the FE reference")
+    refs, probes = fe_reference.attach(comm, refs, (soil, body, loading), points, schedule,
+                                       monitor, p.fe_reference, p.fe_cells)
     plan = Plan(soil=soil, body=body, loading=loading, scheme=scheme, schedule=schedule,
                 refs=refs, limits=limits,
                 outputs=Outputs(p.output, summary_path, p.figures, p.figure_format),
-                monitor_height=height, run={"id": run_id, "options": recorded},
+                monitor_height=monitor[1], run={"id": run_id, "options": recorded},
                 signature=signature, scene=workprecision.scene_signature(p),
                 provenance=options, restart=p.restart,
                 resumed_id=restart[3] if restart else None, goal=goal,
-                target_error=p.target_error)
+                target_error=p.target_error, monitor_x=monitor[0], probes=probes)
     _print_plan(comm, plan, points.n_global)
     return plan, grid, points, state, t_wall
 
@@ -269,24 +272,18 @@ def _target(p, comm) -> tuple:
                "why": lines}
 
 
-def _monitor_height(points, H, wanted, mpi) -> float:
-    """Mark the monitor points (the row nearest ``wanted`` (m), or with NaN the highest
-    below mid-height of a body of height H) in the field ``monitor``; returns their
-    height y0 (collective)."""
-    from mpi4py import MPI
-
-    with points.fields("x0", "monitor") as (x0, mon):
-        y0 = x0[:, 1]
-        if math.isnan(wanted):
-            below = y0[y0 < H / 2 - 1e-12 * H]
-            target = mpi.allreduce(float(below.max()) if below.size else -np.inf, op=MPI.MAX)
-        else:
-            near = y0[np.argmin(np.abs(y0 - wanted))] if y0.size else np.inf
-            dist = mpi.allreduce(abs(near - wanted), op=MPI.MIN)
-            cand = near if abs(abs(near - wanted) - dist) < 1e-12 * H else -np.inf
-            target = mpi.allreduce(cand, op=MPI.MAX)
-        mon[:] = np.abs(y0 - target) < 1e-9 * H
-    return float(target)
+def _place_monitor(points, body, loading, at, height, mpi) -> tuple:
+    """Mark the monitor points (:func:`reporting.place_monitor`) at ``at`` (x, y) (m,
+    -mpm_monitor) or at the ``height`` (m, -mpm_monitor_height); by default a column's row
+    of points highest below mid-height, and in a scene without a closed form the point of
+    that row nearest its axis under the load (:func:`plan.axis`). Returns their (x or
+    NaN, y) (m)."""
+    wanted_y, wanted_x = height, math.nan
+    if at:
+        wanted_x, wanted_y = at
+    elif plans.no_reference(body, loading):
+        wanted_x = plans.axis(body, loading)
+    return reporting.place_monitor(points, body.height, wanted_y, wanted_x, mpi)
 
 
 def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
@@ -299,6 +296,8 @@ def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
         signals.stage("set-up: the fundamental frequency f1")
         try:
             f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
+        except NotConverged:
+            raise                    # a solver the options chose (-f1_eps_*) that failed
         except NumericalError as exc:
             # f1 only feeds the spring-mass criterion, which does not bound stability (see
             # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
@@ -386,7 +385,7 @@ def _print_plan(comm, plan, n_points):
                     f"{body.cells[1]} cells, {n_points} material points, {comm.getSize()} "
                     f"rank(s); c_v = {refs.c_v:.4g} m2/s, T_v = {schedule.Tv_end} at t = "
                     f"{t_end:.4g} s: {schedule.nsteps} steps of {schedule.dt:.4g} s; monitor "
-                    f"at y = {plan.monitor_height:.5g} m\n"
+                    f"{reporting.monitor_words(plan)}\n"
                     f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
                     f"liquid basis {scheme.liquid_basis}, pressure projection "
                     f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
@@ -508,14 +507,18 @@ def _progress(plan, state, k, now, t_steps, first, t_wall) -> str:
             f"{(now - t_steps) / (k - first + 1) * (nsteps - k):.0f} s left")
 
 
-def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
+def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
     """The reporting after the last step: the summary's results, the tables, the target
-    error's check; the output files and the summary (rank 0)."""
+    error's check; the output files and the summary (rank 0); the wall time of the run's
+    phases. ``clocks``: (the perf_counter of the set-up proper, the run's
+    :class:`clock.Phases`)."""
+    t_wall, phases = clocks
     records, summary_path = state.reports, plan.outputs.summary
     summary["steps"] = plan.schedule.nsteps
     summary["completed"] = True
     summary["wall_seconds"] = time.perf_counter() - t_wall
     summary["monitor"] = {"height": plan.monitor_height,
+                          **({} if math.isnan(plan.monitor_x) else {"x": plan.monitor_x}),
                           **{key: [r[key] for r in records] for key in (
                               "Tv", "p_over_q", "terzaghi", "error_pct", "consistent",
                               "error_consistent_pct") if not records or key in records[0]}}
@@ -524,11 +527,14 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
                                  "terzaghi": [r["l2_terzaghi"] for r in records],
                                  "consistent": [r["l2_consistent"] for r in records]}
     summary["consolidation_degree"] = reports.surface.summary(state.degree)
-    reporting.print_reports(comm, records, plan.refs)
+    reporting.print_reports(comm, records, plan.refs, reporting.monitor_words(plan))
+    fe = reporting.print_fe(comm, plan, state)
+    if fe is not None:
+        summary["fe_reference"] = fe
     settlement.print_degree(comm, state.degree, reports.surface)
     if plan.refs.static:
-        summary["static_references"] = settlement.print_ends(comm, state.degree,
-                                                             plan.refs.static)
+        summary["static_references"] = settlement.print_ends(
+            comm, state.degree, plan.refs.static, reports.surface.extent)
     if plan.goal is not None:
         _target_verdict(plan, summary, pace, comm)
     last = reports.series.last()          # rank 0's: it writes the series
@@ -548,10 +554,13 @@ def _finish(plan, reports, state, summary, pace, comm, t_wall) -> int:
         files.update(settlement.write_files(plan.outputs, reports.surface, state.settlement,
                                             plan.refs, plan.schedule.Tv_end,
                                             reporting.title(plan), state.troughs))
+    phases.mark("reporting")
+    summary["wall"] = {f"{phase.replace('-', '')}_s": s
+                       for phase, s in phases.seconds().items()}
+    if comm.getRank() == 0:
         output.write_json(summary_path, dict(summary, files=files))
     PETSc.Sys.Print(output.results_line(plan.outputs.folder, files), comm=comm)
-    PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary {summary_path}",
-                    comm=comm)
+    PETSc.Sys.Print(f"{phases.line()}; summary {summary_path}", comm=comm)
     return 0
 
 

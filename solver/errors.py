@@ -14,6 +14,12 @@ class NumericalError(Exception):
     exit_code = 3
 
 
+class NotConverged(NumericalError):
+    """A PETSc KSP or SLEPc EPS that stopped without converging (:func:`check_converged`):
+    its solver is the options' (``-static_ksp_*``, ``-eps_*``), so the run stops on it even
+    where another numerical failure only drops what it would have given. Exit code 3."""
+
+
 class Interrupted(BaseException):
     """A run stopped by SIGTERM or SIGINT (:mod:`solver.signals`), after writing the summary
     and, once stepping has begun, a checkpoint. Exit code 4. ``stage``: where it stopped.
@@ -37,6 +43,22 @@ class InternalError(Exception):
     Exit code 5."""
 
     exit_code = 5
+
+
+def check_converged(solver, what: str) -> None:
+    """:class:`NotConverged` when the PETSc KSP or SLEPc EPS ``solver`` stopped without converging
+    (its converged reason below 0: the iteration limit, a breakdown, a failed
+    factorization), naming ``what`` was solved, the solver type, the reason and the
+    iterations. A KSP or EPS run by options (``-static_ksp_type cg``) may stop anywhere,
+    and its last iterate is no result."""
+    reason = solver.getConvergedReason()
+    if reason >= 0:
+        return
+    names = {v: k for k, v in vars(type(solver).ConvergedReason).items()
+             if k.startswith(("CONVERGED_", "DIVERGED_"))}
+    raise NotConverged(f"{what}: {type(solver).__name__} {solver.getType()} did not "
+                         f"converge ({names.get(reason, reason)} after "
+                         f"{solver.getIterationNumber()} iterations)")
 
 
 def describe(exc: BaseException) -> str:

@@ -207,16 +207,23 @@ def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, rati
     return fig
 
 
-def settlement_trough(plt, troughs, extent, ends, title: str):
+def settlement_trough(plt, troughs, extent, ends, title: str, fe=()):
     """The surface settlement (mm, downwards) along x (m) at each report time (``troughs``:
-    (T_v, x, s (m)) rows), the loaded part ``extent`` (x0, x1) shaded, and the static
-    solutions of the undrained and final surface (``ends``: static.Ends, or empty)."""
+    (T_v, x, s (m)) rows), the loaded part ``extent`` (x0, x1) shaded, the static
+    solutions of the undrained and final surface (``ends``: static.Ends, or empty) and the
+    FE reference's troughs ``fe`` ((T_v, x, s) rows: dashed, in their T_v's colour)."""
     fig, ax = plt.subplots(figsize=(7, 4.5))
     if extent is not None:
         ax.axvspan(*extent, color="0.9", label="loaded")
     colors = tv_colors(plt, len(troughs))
+    by_tv = {Tv: (x, s) for Tv, x, s in fe}
     for (Tv, x, s), col in zip(troughs, colors):
-        ax.plot(x, 1e3 * np.asarray(s), "o-", ms=3, lw=1.0, color=col, label=f"T_v = {Tv:g}")
+        ax.plot(x, 1e3 * np.asarray(s), "o-", ms=3, lw=1.0, color=col,
+                label=f"MPM, T_v = {Tv:g}" if fe else f"T_v = {Tv:g}")
+        if Tv in by_tv:
+            ax.plot(by_tv[Tv][0], 1e3 * np.asarray(by_tv[Tv][1]), "--", lw=1.2, color=col)
+    if by_tv:
+        ax.plot([], [], "--", lw=1.2, color="k", label="FE reference, in its T_v's colour")
     if ends:
         ax.plot(ends.x, 1e3 * np.asarray(ends.undrained_top), color="k",
                 label="static, undrained", **COMPRESSIBLE)
@@ -228,4 +235,70 @@ def settlement_trough(plt, troughs, extent, ends, title: str):
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    return fig
+
+
+def axis_profiles(plt, snapshots, lines, H: float, title: str, soil=None):
+    """The excess pore pressure p / q (-) against height (m) of a column of points at
+    each time (``snapshots``: (T_v, heights, p / q) rows; markers in the T_v's colour,
+    each named in the legend) and the FE reference's profiles (``lines``: the same rows,
+    solid lines in their T_v's colour), up to the height H; the layer interfaces of
+    ``soil``."""
+    fig, ax = plt.subplots(figsize=(6, 6))
+    colors = tv_colors(plt, len(snapshots))
+    by_tv = {Tv: (y, p) for Tv, y, p in lines}
+    for (Tv, y, p), col in zip(snapshots, colors):
+        ax.plot(p, y, "o", ms=3.5, mfc="none", color=col, label=f"T_v = {Tv:g}")
+        if Tv in by_tv:
+            ax.plot(by_tv[Tv][1], by_tv[Tv][0], color=col, lw=1.0)
+    if lines:
+        ax.plot([], [], color="k", lw=1.0, label="FE reference")
+    ax.plot([], [], "o", ms=3.5, mfc="none", color="k", label="MPM points")
+    layer_interfaces(ax, soil, label=True)
+    ax.set_xlabel("excess pore pressure p / q (-)")
+    ax.set_ylabel("height above the base (m)")
+    ax.set_ylim(0, H)
+    ax.set_xlim(left=min(0.0, *(float(np.min(p)) for _, _, p in snapshots)) if snapshots
+                else 0.0)
+    ax.grid(alpha=0.3)
+    ax.set_title(title, fontsize=10)
+    legend_below(ax, ncol=4)
+    return fig
+
+
+def settlement_time_2d(plt, t, axis, mean, x_axis: float, extent, fe, ends, title: str):
+    """A scene without a closed form: the settlement (mm, downwards) at the axis x =
+    ``x_axis`` (m) and its mean under the load (``extent`` (x0, x1), m; None: the whole
+    top) against time (log axis, in the unit of :func:`time_unit`), the run's (``t`` (s),
+    ``axis``, ``mean`` (m)) and the FE reference's (``fe``: (t, axis, mean, cells), or
+    None), with the static ends of the mean (``ends``: (undrained, final) m, or None)."""
+    t, axis, mean = (np.asarray(a, dtype=float) for a in (t, axis, mean))
+    keep = t > 0
+    unit, sec = time_unit(t[-1] if len(t) else 1.0)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    under = ("the top" if extent is None else f"{extent[0]:g} <= x <= {extent[1]:g} m")
+    ax.plot(t[keep] / sec, 1e3 * axis[keep], color="tab:blue", lw=1.0,
+            label=f"MPM, at the axis x = {x_axis:g} m")
+    ax.plot(t[keep] / sec, 1e3 * mean[keep], color="tab:orange", lw=1.0,
+            label=f"MPM, mean under the load ({under})")
+    if fe is not None:
+        ft, fa, fm, cells = fe
+        name = f"FE ({cells[0]} x {cells[1]} Q9/Q4)"
+        ax.plot(ft / sec, 1e3 * fa, color="k", marker=".", ms=4,
+                label=f"{name}, at the axis", **CLASSIC)
+        ax.plot(ft / sec, 1e3 * fm, color="k", marker=".", ms=4,
+                label=f"{name}, mean under the load", **COMPRESSIBLE)
+    if ends is not None:
+        for value, words in zip(ends, ("undrained", "final")):
+            ax.axhline(1e3 * value, color="0.5", lw=0.8, ls="--")
+            ax.annotate(f"static {words} mean {1e3 * value:.4g} mm", (0.01, 1e3 * value),
+                        xycoords=("axes fraction", "data"), fontsize=7, color="0.3",
+                        va="bottom")
+    ax.set_xscale("log")
+    ax.invert_yaxis()                    # settlement grows downwards, as the ground moves
+    ax.set_xlabel(f"time t ({unit})")
+    ax.set_ylabel("surface settlement (mm, downwards)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="upper right")
     return fig

@@ -17,7 +17,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from . import jacobi, shapes
-from .errors import NumericalError
+from .errors import NumericalError, check_converged
 from .scene import build, destroy
 
 
@@ -49,7 +49,17 @@ def slepc_solve(K, M, nmodes: int, which: str = "smallest", prefix: str = ""):
     vectors = []
     try:
         _configure(eps, K, M, nmodes, which, prefix)
-        eps.solve()
+        inner = (eps.getST().getKSP(), "SLEPc's eigensolve's linear solves (options "
+                 f"-{prefix}st_ksp_*, -{prefix}st_pc_*)")
+        try:
+            eps.solve()
+        except PETSc.Error:
+            check_converged(*inner)    # SLEPc's own stop (error 91), named
+            raise
+        # Checked here too: PETSc raises on a nested solve's iteration limit only until a
+        # first error has left its nesting count behind, then returns its iterate as is.
+        check_converged(*inner)
+        check_converged(eps, f"SLEPc's eigensolve (options -{prefix}eps_*, -{prefix}st_*)")
         nconv = eps.getConverged()
         if nconv < nmodes:
             raise NumericalError(f"SLEPc converged {nconv} of {nmodes} eigenpairs "

@@ -22,10 +22,14 @@ Arguments, all kept between steps (no per-step temporaries):
   them alive and in place while the addresses are in use.
 - the nodal arrays are node-major, ``node * nfields + field``, as a DMDA Vec with ``dof =
   nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
-  velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each), the projected pressure
-  increments (1 field) and the static data (NB = 5 per owned node: the load's nodal force,
-  then 1 or 0 for the free or fixed DOFs of v_s (x, y) and v_l (x, y); a v_l DOF with 0 is
-  normal to an impermeable side and tied to v_s, see :func:`nodal_update`).
+  velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each; NGL = 10 in layered
+  material, with the Darcy flux), the projected pressure increments (1 field; 2 with the
+  corner projection: sum N_Q4 V dp and its own lumped mass sum N_Q4 V) and the static data
+  (NB = 10 per owned node: the load's nodal force, then 1 or 0 for the free or fixed DOFs
+  of v_s (x, y) and v_l (x, y), a v_l DOF with 0 being normal to an impermeable side and
+  tied to v_s, see :func:`nodal_update`; then 1, or 0 on a drained side, where the corner
+  projection holds the pressure; then the hydrostatic force of the water outside the
+  drained sides on the mixture and on the liquid, x and y each).
 
 Compilation: ``cache=True`` stores the machine code under ``solver/__pycache__`` (or
 ``NUMBA_CACHE_DIR``), so only the first run on a machine compiles; :func:`warm_up` compiles
@@ -51,27 +55,34 @@ _jit = njit(cache=True, **shapes.KERNEL_OPTIONS)
 
 NF = 9        # nodal sums: S, V v_s (2), V v_l (2), f_m (2), f_l (2); + S_l when blended
 NG = 8        # nodal results sent back to the points: a_s (2), a_l (2), v_s (2), v_l (2)
-NB = 5        # static data per owned node: the load's force, free flags of v_s and v_l (0: tied)
+NGL = NG + 2  # ... and in layered material the Darcy flux q = n_q (v_l - v_s) (2)
+NLS = 4       # nodal sums layered material adds (the last fields): masses, drag, drag / n
+NB = 10       # static data per owned node: the load's force, free flags of v_s and v_l (0: tied),
+              # free flag of the corner projection's pressure (0: drained), the hydrostatic
+              # water force of drained sides on the mixture (2) and the liquid (2)
 
 # C: point count and point-field addresses ...
-(PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW, PLAYER) = range(12)
+(PN, PX, PXREF, PV, PVS, PVL, PSIG, PP, PJ, PVISC, PVSLOW, PLAYER, PGRADP) = range(13)
 # ... float64 arrays, each an (address, length) pair: the reals; the static node data; the
 # nodal sums of the ghosted-local and of the owned nodes; the results (accelerations and
 # velocities) of the owned and of the ghosted-local nodes; the projected pressure
 # increments of the ghosted-local and of the owned nodes (one rank: local = owned) ...
-AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(12, 28, 2)
+AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(13, 29, 2)
 # ... and the scheme's integers.
 (INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
  IBLEND,    # 1: the liquid in the blended basis N_hat
  IHRZ,      # 1: HRZ lumping weights, 0: row sums (w = N)
- IPROJ,     # 1: pore-pressure increments projected through the nodes
+ IPROJ,     # pore-pressure increments: 0 per point, 1 projected through the nodes (PNODAL),
+            # 2 through the corner nodes' bilinear field (PCORNER)
  IIMPL,     # 1: implicit drag
  ICMX, ICMY,    # largest cell index per direction (cells - 1)
  ISTX, ISTY,    # ghosted-local node offset of one cell step in x and in y
  INOWN,         # owned nodes (the nodal update's range)
  ILAYERS,       # layers of the per-point material table (0: one material, the R* slots)
- ) = range(28, 39)
-NC = 39
+ IWATER,        # 1: drained sides under gravity carry the water's hydrostatic force
+ ) = range(29, 41)
+NC = 41
+PNODAL, PCORNER = 1, 2   # C[IPROJ] of the nodal and the corner projection
 
 # R: reals (SI units).
 (RHX, RHY,     # cell size (m)
@@ -88,14 +99,19 @@ RD = 16                   # the plane-strain elasticity matrix D (Pa), 3 x 3 row
 RBOX = RD + 9             # migration box per direction: partitioned (1/0), h, lo, hi
 NR = RBOX + 8
 # Layered material: after the NR reals, one row of NL per layer, indexed by the point's
-# ``layer`` field. Masses and drag then enter the nodes as three more nodal sums (the last
-# three fields: sum w V c_s, sum w_l V c_l, sum w_l V c_q), since their ratio to S varies
-# from node to node; the liquid's M~_l = rho_l S_l keeps its one coefficient (one fluid).
+# ``layer`` field. Masses and drag then enter the nodes as NLS more nodal sums (the last
+# fields: sum w V c_s, sum w_l V c_l, sum w_l V c_q, sum w_l V c_q / n), since their ratio
+# to S varies from node to node; the liquid's M~_l = rho_l S_l keeps its one coefficient
+# (one fluid). The last sum gives the node's flux porosity n_q = sum w_l V c_q / sum w_l V
+# c_q / n: Darcy's law lumped at the node, sum w_l V (c_q / n) q = f_l = Q w, makes the
+# Darcy flux q = n_q w (n_q = n inside a layer), and the storage equation takes the
+# divergence of q, which is continuous across a porosity jump where n w is not.
 (LCS, LCL, LCQ,   # M_s, M_l per unit volume (kg/m3), Q per unit volume (kg/m3/s)
  LGM,             # the mixture's weight per volume, y (N/m3, with the sign of g_y)
  LN,              # porosity
- ) = range(5)
-LD = 5            # the layer's D (Pa), 3 x 3 row-major
+ LCK,             # Q per unit volume over the porosity (kg/m3/s)
+ ) = range(6)
+LD = 6            # the layer's D (Pa), 3 x 3 row-major
 NL = LD + 9
 
 
@@ -273,20 +289,20 @@ def _blended(off, R, xi, eta, S):
 def points_to_grid(off, C, hrz, blend, layered):
     """Nodal sums (ghosted-local nodes x C[INF] fields, overwritten) of the points: w V,
     w V v_s (2), w_l V v_l (2), the mixture force -(sigma' - p I + eta div v_s I) V grad N
-    + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2), w_l V
-    (blended basis), and with layers w V c_s, w_l V c_l, w_l V c_q (the layer's; the
-    momenta then weighted by c_s and c_l too: w m_s v_s, w_l m_l v_l)."""
+    + N V rho_m g (2, N per m), the liquid force p V grad N_l + N_l V rho_l g (2; corner
+    projection: N_l V (rho_l g - grad p)), w_l V (blended basis), and with layers w V c_s,
+    w_l V c_l, w_l V c_q, w_l V c_q / n (the layer's; the momenta then w m_s v_s,
+    w_l m_l v_l)."""
     n, nf = C[PN], C[INF]
     R, G = _array(C, AR), _array(C, AGL)
-    layer, im = _points1(C, PLAYER), nf - 3
-    mcs = mcl = mcq = 0.0
+    layer, im = _points1(C, PLAYER), nf - NLS
+    mcs = mcl = mcq = mck = 0.0
     G[:] = 0.0
     Gn = G.reshape((G.shape[0] // nf, nf))      # by node (one index check per node)
     xr, V = _points(C, PXREF, 2), _points1(C, PV)
     vs, vl, sig, pp = _points(C, PVS, 2), _points(C, PVL, 2), _points(C, PSIG, 3), \
         _points1(C, PP)
-    eta = R[RETA] > 0.0
-    visc = _points1(C, PVISC)
+    eta, visc, gp = R[RETA] > 0.0, _points1(C, PVISC), _points(C, PGRADP, 2)
     gm, gl = R[RGM], R[RGL]
     nen = len(off)
     offs = carray(_on_stack(off), nen)
@@ -296,6 +312,7 @@ def points_to_grid(off, C, hrz, blend, layered):
     # writes them.
     K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
+    r7 = rnl if C[IPROJ] == PCORNER else rlx     # the liquid force's x row (N_l: grad form)
     for k in range(n):
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None:
@@ -305,17 +322,17 @@ def points_to_grid(off, C, hrz, blend, layered):
         Vk, p = V[k], pp[k]
         t00, t11 = p - sig[k, 0], p - sig[k, 1]
         if eta:
-            t00 -= visc[k]
-            t11 -= visc[k]
-        t00 *= Vk
-        t11 *= Vk
+            t00, t11 = t00 - visc[k], t11 - visc[k]
+        t00, t11 = t00 * Vk, t11 * Vk
         t01 = -(sig[k, 2] * Vk)
         msx, msy, mlx, mly = vs[k, 0] * Vk, vs[k, 1] * Vk, vl[k, 0] * Vk, vl[k, 1] * Vk
         pV, gmV, glV = p * Vk, Vk * gm, Vk * gl
+        pV, lx, glV = (0.0, -gp[k, 0] * Vk, glV - gp[k, 1] * Vk) if r7 == rnl else (pV, 0.0, glV)
         if layered is not None:
             r = NR + NL * int(layer[k])
             gmV = Vk * R[r + LGM]
             mcs, mcl, mcq = Vk * R[r + LCS], Vk * R[r + LCL], Vk * R[r + LCQ]
+            mck = Vk * R[r + LCK]
             # Momenta weighted by the point's masses: the nodal velocity is sum w m v / M.
             msx, msy = msx * R[r + LCS], msy * R[r + LCS]
             mlx, mly = mlx * R[r + LCL], mly * R[r + LCL]
@@ -324,7 +341,7 @@ def points_to_grid(off, C, hrz, blend, layered):
             K[SN, 0], K[SN, 1], K[SN, 2], K[SN, 3], K[SN, 4] = Vk, msx, msy, mlx, mly
             K[SX, 5], K[SY, 5] = t00, t01
             K[SX, 6], K[SY, 6], K[SN, 6] = t01, t11, gmV
-            K[SX, 7], K[SY, 8], K[SN, 8] = pV, pV, glV
+            K[SX, 7], K[SY, 8], K[SN, 7], K[SN, 8] = pV, pV, lx, glV
             for a in range(nen):
                 g = Gn[base + offs[a]]
                 sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
@@ -341,14 +358,13 @@ def points_to_grid(off, C, hrz, blend, layered):
             g[4] += wl * mly
             g[5] += dx * t00 + dy * t01
             g[6] += dx * t01 + dy * t11 + S[SN, a] * gmV
-            g[7] += S[rlx, a] * pV
+            g[7] += S[r7, a] * (pV + lx)
             g[8] += S[rly, a] * pV + Nl * glV
             if blend is not None:
                 g[9] += Nl * Vk
             if layered is not None:
-                g[im] += w * mcs
-                g[im + 1] += wl * mcl
-                g[im + 2] += wl * mcq
+                g[im], g[im + 1] = g[im] + w * mcs, g[im + 1] + wl * mcl
+                g[im + 2], g[im + 3] = g[im + 2] + wl * mcq, g[im + 3] + wl * mck
 
 
 # -- nodal update ---------------------------------------------------------------------------
@@ -396,8 +412,10 @@ def _implicit(coef, fm, fl, vsn, vln, held_s, held_l, dt):
 
 @_jit
 def nodal_update(C, dt, load_factor, damping):
-    """Accelerations and velocities O (owned nodes x NG) from the sums G (owned nodes x
-    C[INF]): v = sum w V v / S, the load's force, local damping of the mixture's
+    """Accelerations and velocities O (owned nodes x NG, NGL in layered material: the
+    Darcy flux too) from the sums G (owned nodes x C[INF]): v = sum w V v / S, the load's
+    force, the hydrostatic water force on drained sides (C[IWATER]), local damping of the
+    mixture's
     unbalanced force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
     (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
     A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
@@ -405,11 +423,13 @@ def nodal_update(C, dt, load_factor, damping):
     the masses and drag are the node's own sums (a node on an interface has both layers'
     points around it) and the momenta are mass-weighted (points_to_grid)."""
     nf, blend, implicit, layered = C[INF], C[IBLEND], C[IIMPL], C[ILAYERS] > 0
+    water = C[IWATER]
     R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
-    im = nf - 3
+    im, ngf = nf - NLS, NGL if layered else NG
+    nq = 0.0
     for k in range(C[INOWN]):
-        g, o, b = k * nf, k * NG, k * NB
+        g, o, b = k * nf, k * ngf, k * NB
         S = G[g]
         invS = 1.0 / S if S > 0.0 else 0.0
         Sl, invSl = S, invS
@@ -424,6 +444,8 @@ def nodal_update(C, dt, load_factor, damping):
             invMs = 1.0 / Ms if Ms > 0.0 else 0.0
             invMt = 1.0 / Mt if Mt > 0.0 else 0.0
             div_s, div_l = invMs, 1.0 / Ml if Ml > 0.0 else 0.0
+            Qn = G[g + im + 3]
+            nq = Q / Qn if Qn > 0.0 else 0.0
         else:
             Ms, Ml, Q, Mt = cs * S, cl * Sl, cq * Sl, ct * Sl
             invMs, invMt = invS * (1.0 / cs), invSl * (1.0 / ct)
@@ -435,6 +457,10 @@ def nodal_update(C, dt, load_factor, damping):
             fm, fl = G[g + 5 + d], G[g + 7 + d]
             if d == 1:
                 fm += load_factor * B[b]
+            if water:
+                # The water outside a drained side at its hydrostatic pressure.
+                fm += B[b + 6 + d]
+                fl += B[b + 8 + d]
             if damping != 0.0:
                 # Local (Cundall) damping of the mixture's unbalanced force, against the
                 # mixture momentum, whose sign is that of M_s v_s + M_l v_l (per unit S:
@@ -460,21 +486,25 @@ def nodal_update(C, dt, load_factor, damping):
             O[o + 2 + d] = a_l * free_l
             O[o + 4 + d] = (a_s * dt + vsn) * free_s
             O[o + 6 + d] = (a_l * dt + vln) * free_l
+            if layered:
+                O[o + 8 + d] = nq * (O[o + 6 + d] - O[o + 4 + d])
 
 
 # -- grid to points -------------------------------------------------------------------------
 @_jit
 def grid_to_points(off, C, hrz, blend, layered, dt, flip):
-    """Grid to points from O (ghosted-local nodes x NG): velocities (FLIP, or FLIP/PIC blend
-    ``flip``), stress (D d eps), pore pressure (eqs. 8-9; projected: nodal sums w V dp into
-    ``pacc``), x += dt v_s^{k+1}, viscous stress eta div v_s, fast damping, volume ratio J."""
+    """Grid to points from O (ghosted-local nodes x NG, or NGL): velocities (FLIP, or
+    FLIP/PIC blend ``flip``), stress (D d eps), pore pressure (eqs. 8-9; in layered
+    material from the Darcy flux, dp = -(K_l / n) (div v_s + div q) dt; projected: nodal
+    sums into ``pacc``, :func:`_to_nodes`), x += dt v_s^{k+1}, viscous stress eta div v_s,
+    fast damping, J."""
     n, project = C[PN], C[IPROJ]
     R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
     x, xr, V, vs, vl, sig, pp, J, visc, vslow, layer = _g2p_fields(C)
     blended = blend is not None
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
-    pic = flip != 1.0
-    On = O.reshape((O.shape[0] // NG, NG))      # by node (one index check per node)
+    ngf = NG if layered is None else NGL
+    On = O.reshape((O.shape[0] // ngf, ngf))    # by node (one index check per node)
     pacc[:] = 0.0                               # (empty without the projection)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
@@ -490,7 +520,7 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
             _hrz_weights(off, S)                  # the projection's weights only
         if blend is not None:
             _blended(off, R, xn, yn, S)
-        A[:nr, :NG] = 0.0
+        A[:nr, :ngf] = 0.0
         for a in range(nen):
             h = On[base + offs[a]]
             sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
@@ -507,43 +537,58 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
                 for f in range(4, NG):
                     A[SLX, f] += sLx * h[f]
                     A[SLY, f] += sLy * h[f]
-        # N-interpolated accelerations and velocities, the liquid's in its basis.
-        a0, a1, a4, a5 = A[SN, 0], A[SN, 1], A[SN, 4], A[SN, 5]
-        a2, a3, a6, a7 = A[rnl, 2], A[rnl, 3], A[rnl, 6], A[rnl, 7]
+            if layered is not None:               # the Darcy flux, in the liquid's basis
+                A[rnl, 8], A[rnl, 9] = A[rnl, 8] + S[rnl, a] * h[8], A[rnl, 9] + S[rnl, a] * h[9]
+                A[rlx, 8], A[rly, 9] = A[rlx, 8] + S[rlx, a] * h[8], A[rly, 9] + S[rly, a] * h[9]
+        a4, a5 = A[SN, 4], A[SN, 5]                                    # v_s^{k+1}
         l00, l01, l10, l11 = A[SX, 4], A[SY, 4], A[SX, 5], A[SY, 5]    # grad v_s [i, j]
         dvl = A[rlx, 6] + A[rly, 7]                                    # div v_l
         if blended:
             # div(v_l - v_s) in the liquid's basis: storage div v_s + n div(v_l - v_s), whose
             # power the liquid force balances exactly.
             dvl -= A[SLX, 4] + A[SLY, 5]
-        if pic:
-            vs[k, 0] = flip * (vs[k, 0] + dt * a0) + (1 - flip) * a4
-            vs[k, 1] = flip * (vs[k, 1] + dt * a1) + (1 - flip) * a5
-            vl[k, 0] = flip * (vl[k, 0] + dt * a2) + (1 - flip) * a6
-            vl[k, 1] = flip * (vl[k, 1] + dt * a3) + (1 - flip) * a7
-        else:
-            vs[k, 0] += a0 * dt
-            vs[k, 1] += a1 * dt
-            vl[k, 0] += a2 * dt
-            vl[k, 1] += a3 * dt
+        _advance(vs, vl, k, A, rnl, flip, dt)
         e0, e1, e2 = l00 * dt, l11 * dt, (l01 + l10) * dt
         divs = l00 + l11
         for i in range(3):
             sig[k, i] += D[3 * i] * e0 + D[3 * i + 1] * e1 + D[3 * i + 2] * e2
-        dp = (divs * cdiv + dvl * n_) * kdp
-        if project:
-            wV = V[k]
-            for a in range(nen):
-                pacc[base + offs[a]] += S[rw, a] * wV * dp
+        # In layers the flux's divergence, continuous across a porosity jump.
+        dp = ((divs + A[rlx, 8] + A[rly, 9]) if layered is not None else
+              (divs * cdiv + dvl * n_)) * kdp
+        if project == PCORNER:
+            # The relative flux times dt K_l / n (Pa m), in the liquid's basis.
+            fx, fy = ((A[rnl, 8] * kdp, A[rnl, 9] * kdp) if layered is not None else
+                      ((A[rnl, 6] - A[rnl, 4]) * (n_ * kdp), (A[rnl, 7] - A[rnl, 5]) * (n_ * kdp)))
+            _to_corners(off, offs, pacc, base, xn, yn, R, V[k], divs * kdp, fx, fy)
+        elif project:
+            _to_nodes(off, offs, pacc, base, S[rw], V[k], dp)
         else:
             pp[k] -= dp                          # eqs. 8-9
-        x[k, 0] += a4 * dt
-        x[k, 1] += a5 * dt
+        x[k, 0], x[k, 1] = x[k, 0] + a4 * dt, x[k, 1] + a5 * dt
         if eta > 0.0:
             visc[k] = divs * eta
         if fast > 0.0:
             _damp_fast(vs, vl, vslow, k, fs, fl, dt * slow, dt * fast)
         J[k] *= divs * dt + 1.0                  # volume ratio of the solid
+
+
+@_jit
+def _advance(vs, vl, k, A, rnl, flip, dt):
+    """Point k's velocities (m/s) from the interpolated nodal results A (row SN, and the
+    liquid's in its basis, row rnl: a_s, a_l, v_s^{k+1}, v_l^{k+1}): FLIP, or the
+    FLIP/PIC blend ``flip``."""
+    a0, a1, a4, a5 = A[SN, 0], A[SN, 1], A[SN, 4], A[SN, 5]
+    a2, a3, a6, a7 = A[rnl, 2], A[rnl, 3], A[rnl, 6], A[rnl, 7]
+    if flip != 1.0:
+        vs[k, 0] = flip * (vs[k, 0] + dt * a0) + (1 - flip) * a4
+        vs[k, 1] = flip * (vs[k, 1] + dt * a1) + (1 - flip) * a5
+        vl[k, 0] = flip * (vl[k, 0] + dt * a2) + (1 - flip) * a6
+        vl[k, 1] = flip * (vl[k, 1] + dt * a3) + (1 - flip) * a7
+    else:
+        vs[k, 0] += a0 * dt
+        vs[k, 1] += a1 * dt
+        vl[k, 0] += a2 * dt
+        vl[k, 1] += a3 * dt
 
 
 @_jit
@@ -593,10 +638,56 @@ def _damp_fast(vs, vl, vslow, k, fs, fl, slow, fast):
 
 
 @_jit
+def _corners(off):
+    """The cell type's corner nodes (local numbers, Q4 order), a tuple."""
+    nen = len(off)
+    return _CORNERS4 if nen == 4 else (_CORNERS8 if nen == 8 else _CORNERS9)
+
+
+@_jit
+def _to_nodes(off, offs, pacc, base, w, V, dp):
+    """The nodal projection's sums of one point of volume V (m3) and increment dp (Pa) with
+    lumping weights ``w``: w V dp."""
+    for a in range(len(off)):
+        pacc[base + offs[a]] += w[a] * V * dp
+
+
+@_jit
+def _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, fx, fy):
+    """The corner projection's sums of one point at natural (xn, yn), volume V (m3): into
+    the two fields of its cell's corners, V (N_Q4 ds - grad N_Q4 . f) and N_Q4 V, with
+    ds = dt (K_l / n) div v_s (Pa) and f = (fx, fy) = dt K_l (v_l - v_s) (Pa m) in the
+    liquid's basis (in layers dt (K_l / n) q, the Darcy flux): its divergence in weak
+    form.
+
+    Why the weak form: the points integrate the cell's products of functions only to
+    first degree (3 x 3 sub-cell centres), and the strong form's N_Q4 div(N_l) is of
+    second: it made the pressure diffuse 1.6 % too fast on the quadratic columns at
+    every resolution. With grad N_Q4 . N_l and the liquid force in gradient form
+    (points_to_grid) the Darcy flux sums N_l V as the drag does, and the diffusion is
+    exact cell by cell for a quadratic pressure (docs/method.md)."""
+    n4, dx4, dy4 = shapes.q4(xn, yn, R[RSX], R[RSY])
+    N = carray(_on_stack((n4, dx4, dy4)), (3, 4))
+    c = carray(_on_stack(_corners(off)), 4)
+    for k in range(4):
+        i = 2 * (base + offs[c[k]])
+        pacc[i] += V * (N[0, k] * ds - (N[1, k] * fx + N[2, k] * fy))
+        pacc[i + 1] += N[0, k] * V
+
+
+@_jit
 def project_nodes(C):
     """Lumped projection at the owned nodes: pn = sum w V dp / S (0 where S = sum w V <=
-    0), S the first of the sums per node."""
+    0), S the first of the sums per node; corner projection: pn = sum N_Q4 V dp / sum N_Q4
+    V, the pair of fields per node (0 off the corners, and on a drained side: the pressure
+    held there, as a Taylor-Hood element holds its pressure DOFs)."""
     G, pn, nf = _array(C, AGO), _array(C, APO), C[INF]
+    if C[IPROJ] == PCORNER:
+        B = _array(C, AB)
+        for k in range(pn.shape[0] // 2):
+            S = pn[2 * k + 1]
+            pn[2 * k] *= (1.0 / S if S > 0.0 else 0.0) * B[k * NB + 5]
+        return
     for k in range(pn.shape[0]):
         S = G[k * nf]
         pn[k] *= 1.0 / S if S > 0.0 else 0.0
@@ -605,7 +696,10 @@ def project_nodes(C):
 @_jit
 def project_back(off, C):
     """Pore pressures p -= sum N pn (ghosted-local nodes) at the points' reference positions
-    (x0, or the new x)."""
+    (x0, or the new x); the corner projection's: :func:`_back_from_corners`."""
+    if C[IPROJ] == PCORNER:
+        _back_from_corners(off, C)
+        return
     R, pn = _array(C, AR), _array(C, APL)
     xr, pp = _points(C, PXREF, 2), _points1(C, PP)
     nen = len(off)
@@ -618,6 +712,28 @@ def project_back(off, C):
             s += N[a] * pn[base + offs[a]]
         pp[k] -= s
 
+
+@_jit
+def _back_from_corners(off, C):
+    """The corner projection back to the points: p -= sum N_Q4 pn and grad p -= sum grad
+    N_Q4 pn (Pa/m) over the corners of each point's cell, at its reference position."""
+    R, pn = _array(C, AR), _array(C, APL)
+    xr, pp, gp = _points(C, PXREF, 2), _points1(C, PP), _points(C, PGRADP, 2)
+    offs = carray(_on_stack(off), len(off))
+    c = carray(_on_stack(_corners(off)), 4)
+    for k in range(C[PN]):
+        base, tx, ty = _locate(C, R, xr[k, 0], xr[k, 1])
+        N = carray(_on_stack(shapes.q4(tx * 2.0 - 1.0, ty * 2.0 - 1.0, R[RSX], R[RSY])),
+                   (3, 4))
+        s = gx = gy = 0.0
+        for a in range(4):
+            pa = pn[2 * (base + offs[c[a]])]
+            s += N[0, a] * pa
+            gx += N[1, a] * pa
+            gy += N[2, a] * pa
+        pp[k] -= s
+        gp[k, 0] -= gx
+        gp[k, 1] -= gy
 
 @_jit
 def grid_to_points_serial(off, C, hrz, blend, layered, dt, flip):
@@ -689,7 +805,7 @@ def warm_up(nen: int, hrz, blend, layered=None) -> dict:
     t = time.perf_counter()
     off = (0,) * nen
     C = context({AR: np.zeros(NR), AB: np.zeros(NB), AGL: np.zeros(NF), AGO: np.zeros(NF),
-                 AOL: np.zeros(NG), AOO: np.zeros(NG)})
+                 AOL: np.zeros(NG if layered is None else NGL), AOO: np.zeros(NGL)})
     points_to_grid(off, C, hrz, blend, layered)
     nodal_update(C, 0.0, 0.0, 0.0)
     grid_to_points(off, C, hrz, blend, layered, 0.0, 1.0)

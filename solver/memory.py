@@ -40,10 +40,15 @@ def estimate(body, jacobi: bool = False) -> int:
 
 def check(body, jacobi: bool = False):
     """InputError if the model (:func:`estimate`'s arguments) cannot fit in this machine's
-    memory."""
+    memory, with the advice that fits: SLEPc in place of Jacobi only where Jacobi's dense
+    matrices are what does not fit (an eigen analysis), else fewer cells or points."""
     need, have = estimate(body, jacobi), available()
-    if need > 0.8 * have:
-        raise InputError(f"-mpm_cells {body.cells[0]},{body.cells[1]}: the model needs about "
-                         f"{need / 2**30:.1f} GiB, more than this machine's "
-                         f"{have / 2**30:.1f} GiB allows (fewer cells or points per cell; "
-                         "-mpm_eigen_solver slepc avoids Jacobi's dense matrices)")
+    if need <= 0.8 * have:
+        return
+    advice = "fewer cells, or fewer points per cell (-mpm_ppc)"
+    if jacobi and estimate(body) <= 0.8 * have:
+        advice = (f"Jacobi's dense matrices take most of it: with -mpm_eigen_solver slepc "
+                  f"it needs about {estimate(body) / 2**30:.1f} GiB; or " + advice)
+    raise InputError(f"-mpm_cells {body.cells[0]},{body.cells[1]}: the model needs about "
+                     f"{need / 2**30:.1f} GiB, more than this machine's "
+                     f"{have / 2**30:.1f} GiB allows ({advice})")

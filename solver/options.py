@@ -24,8 +24,8 @@ import math
 from dataclasses import dataclass
 
 from .errors import InputError
+from .scenefile import PREFIX, pairs as file_pairs
 
-PREFIX = "mpm_"
 EIGEN, CONSOLIDATION = "eigen", "consolidation"
 BOTH = (EIGEN, CONSOLIDATION)
 BC_CHOICES = ("none", "x", "y", "xy")
@@ -83,6 +83,17 @@ def _scaling(v):
     return None if S > 0 else "must be none, auto or > 0"
 
 
+def _fraction(v):
+    """-mpm_flip: auto or a number in [0, 1]."""
+    if v == "auto":
+        return None
+    try:
+        f = _parse_float(v)
+    except ValueError:
+        return "choose auto or a number in [0, 1]"
+    return None if 0 <= f <= 1 else "must be auto or lie in [0, 1]"
+
+
 def _figure_formats(v):
     from .output import figure_formats
 
@@ -118,7 +129,8 @@ SPEC = [
     Option("nu", "float_or_floats", 0.0, "Poisson's ratio, per layer", check=_poisson),
     Option("rho_s", "float_or_floats", 2700.0, "solid grain density (kg/m3), per layer",
            check=_positive),
-    Option("rho_l", "float", 1000.0, "liquid density (kg/m3)", check=_positive),
+    Option("rho_l", "float", 1000.0, "liquid density (kg/m3), one for every layer",
+           check=_positive),
     Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=_open_unit),
     Option("bc_left", "str", "x", "fixed displacement components on x = 0", choices=BC_CHOICES),
     Option("bc_right", "str", "x", "fixed displacement components on x = W", choices=BC_CHOICES),
@@ -146,9 +158,9 @@ SPEC = [
            "under its own weight) or geostatic (hydrostatic pore pressure and K0 effective "
            "stress, at rest under gravity: a load drives the excess it drives without "
            "gravity)", (CONSOLIDATION,), choices=("deposited", "geostatic")),
-    Option("K0", "float", float("nan"), "earth pressure coefficient at rest sigma'_h / "
-           "sigma'_v of the geostatic state (default nu / (1 - nu))", (CONSOLIDATION,),
-           _nonnegative),
+    Option("K0", "float_or_floats", float("nan"), "earth pressure coefficient at rest "
+           "sigma'_h / sigma'_v of the geostatic state, per layer (default: each layer's "
+           "nu / (1 - nu))", (CONSOLIDATION,), _nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
            (CONSOLIDATION,), _nonnegative),
     Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
@@ -185,6 +197,19 @@ SPEC = [
            (CONSOLIDATION,), _all_positive),
     Option("monitor_height", "float", float("nan"), "height of the monitor point (m); "
            "default: the highest material point below mid-height", (CONSOLIDATION,)),
+    Option("monitor", "floats", (), "the monitor point x,y (m): the material point nearest "
+           "it (default: a column's monitor is the mean of the row of points at "
+           "-mpm_monitor_height; a scene without a closed form's the point at that height "
+           "nearest its axis under the load: the rollers' side a load on part of the top "
+           "starts from, else the load's middle)", (CONSOLIDATION,), length=2),
+    Option("fe_reference", "bool", True, "solve a scene without a closed form again by "
+           "finite elements (solver/biot.py: the same body, quasi-static) and report the "
+           "settlement under the load and the monitor's pore pressure against it, with "
+           "errors (0: not)", (CONSOLIDATION,)),
+    Option("fe_cells", "ints", (), "the FE reference's Q9/Q4 cells NX,NY (default: square "
+           "cells, 32 across the shorter side or fewer to keep about 2048, the layer "
+           "interfaces on cell boundaries)", (CONSOLIDATION,), length=2,
+           check=_all_at_least_one),
     Option("output_every", "int", 0, "write point fields every N steps and at the report "
            "times (0: at the report times only)", (CONSOLIDATION,), _nonnegative),
     Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "
@@ -200,8 +225,9 @@ SPEC = [
            "v_slow their mixture velocity low-passed over 1/w1 (w1 = 2 pi / T_w, T_w the "
            "scaled wave period 4H/c1); both phases alike, so Darcy flow is untouched; takes "
            "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
-    Option("flip", "float", 1.0, "FLIP fraction of the point velocity update (0: PIC)",
-           (CONSOLIDATION,), lambda v: None if 0 <= v <= 1 else "must lie in [0, 1]"),
+    Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
+           "(0: PIC), or auto (1; 0.99 for q8 with the corner pressure projection, whose "
+           "pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), _fraction),
     Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
@@ -209,9 +235,10 @@ SPEC = [
            "assume), large (at their current positions: moving-point MPM), auto (small)",
            (CONSOLIDATION,), choices=("auto", "small", "large")),
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
-           "point), nodal (projected onto the nodal field and interpolated back), auto "
-           "(nodal for q4, none for q8 and q9)", (CONSOLIDATION,),
-           choices=("auto", "none", "nodal")),
+           "point), nodal (projected onto the nodal field and interpolated back), corner "
+           "(onto the bilinear field of the cells' corner nodes: a pressure of lower order "
+           "than the quadratic cells' velocities), auto (nodal for q4, none for q8 and q9)",
+           (CONSOLIDATION,), choices=("auto", "none", "nodal", "corner")),
     Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
            "force, velocity transfers and relative motion): element (N), blended (N/2 + "
            "N_Q4/2, positive lumped weights), auto (blended for q8)", (CONSOLIDATION,),
@@ -246,6 +273,11 @@ SPEC = [
 ]
 
 _BY_NAME = {o.name: o for o in SPEC}
+# Why a value that is not per layer is one: the pore fluid is the same in every layer.
+_FLUID = ("one value: the pore water is one fluid, the same in every layer (per layer: "
+          + ", ".join(f"-{PREFIX}{o.name}" for o in SPEC if o.kind == "float_or_floats")
+          + ")")
+ONE_VALUE = {"rho_l": _FLUID, "K_l": _FLUID, "mu_l": _FLUID}
 # Besides the options, what :func:`read` found out about where they came from.
 EXTRA_FIELDS = ("given", "from_file", "notes")
 
@@ -392,6 +424,9 @@ def _value(opt: Option, text):
         raise InputError(f"-{PREFIX}{opt.name}: '{text}' is not a boolean")
     if text.strip() == "":
         raise InputError(f"-{PREFIX}{opt.name}: needs a value")
+    if opt.kind in ("float", "int") and "," in text:
+        raise InputError(f"-{PREFIX}{opt.name} {text.strip()}: "
+                         + ONE_VALUE.get(opt.name, "takes one value, not a list"))
     try:
         value = _parse(opt, text)
     except ValueError as exc:
@@ -441,50 +476,6 @@ def _assemble(spec, given: dict, origins: dict, base: dict):
     cls = Params if spec is SPEC else params_class(spec)
     return cls(**values, given=tuple(sorted(given)),
                from_file={n: origins[n] for n in given if n in origins}, notes=tuple(notes))
-
-
-def _option_lines(text: str):
-    """(line number, line, words) of each line of an options file that is not empty or a
-    comment."""
-    for number, line in enumerate(text.splitlines(), start=1):
-        words = line.split("#", 1)[0].split()
-        if words:
-            yield number, line, words
-
-
-def _file_pairs(path: str) -> list:
-    """``[(name, value or None)]`` of a plain options file (checked by scan_file), in order."""
-    with open(path, encoding="utf-8") as fh:
-        return [(w[0][1:], w[1] if len(w) > 1 else None)
-                for _, _, w in _option_lines(fh.read())]
-
-
-def scan_file(path: str) -> dict:
-    """Check a plain PETSc options file line by line before PETSc reads it.
-
-    Returns where each ``-mpm_`` option is set, ``{name: "path:line"}``. A line must be empty,
-    a comment (``#``) or ``-option [value]``; anything else is an InputError naming the file
-    and line (PETSc itself would stop with a multi-line error dump).
-    """
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file") from None
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror})") from None
-    if "\0" in text:
-        raise InputError(f"{path}: not a text file")
-    where = {}
-    for number, line, tokens in _option_lines(text):
-        if not tokens[0].startswith("-") or len(tokens[0]) < 2 or len(tokens) > 2:
-            raise InputError(f"{path}:{number}: expected '-option [value]', found "
-                             f"'{line.strip()[:60]}'")
-        name = tokens[0][1:]
-        if name.startswith(PREFIX):
-            where[name[len(PREFIX):]] = f"{path}:{number}"
-    return where
 
 
 def table(spec=None, values=None) -> str:
@@ -563,7 +554,7 @@ def command_line(argv, db=None):
                 raise InputError("-options_file_yaml: only on a command line; from Python "
                                  "give -options_file")
             if name == "options_file":
-                for option, text in _file_pairs(value):
+                for option, text in file_pairs(value):
                     db.setValue(option, text)
         for name, value in pairs:
             if name not in ("options_file", "help", "-help", "h"):

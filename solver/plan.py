@@ -57,9 +57,12 @@ class References:
     the drainage). The reference is a uniform column drained at its ends ``drained``
     (a subset of top, bottom; empty: undrained) from an initial excess over hydrostatic
     linear in height: (p_top, p_base) / q in each form (``initial``: classic, consistent).
-    ``hydrostatic`` (Pa/m) is rho_l g: the excess at height y is p - rho_l g (H - y).
-    ``why`` says why the scene has no reference ('' when it has one); ``why_degree`` why
-    it has no degree of consolidation (U) although it has a reference.
+    ``hydrostatic`` (Pa/m) is rho_l g: the excess at height y is p - rho_l g (H - y), with
+    or without a reference (the water table at the surface). ``why`` says why the scene
+    has no reference ('' when it has one); ``why_degree`` why it has no degree of
+    consolidation (U) although it has a reference. ``fe`` is the finite-element solution
+    of a scene without one (:class:`solver.fe_reference.FEReference`, or None: ``fe_why``
+    says why not).
     """
 
     c_v: float
@@ -74,19 +77,22 @@ class References:
     why_degree: str = ""
     static: tuple = ()      # (undrained, final) settlement (m) by static solves, or ()
     layered: tuple = ()     # a layered column's references (classic, consistent), or ()
+    fe: object = None       # fe_reference.FEReference of a scene without a closed form
+    fe_why: str = ""
 
     @classmethod
     def of(cls, soil: Soil, loading: Loading, body: Body) -> "References":
         """The references of ``body`` of ``soil`` (a soil.Soil, or a soil.Ground of
         layers) under ``loading``."""
         H, q = body.height, loading.scale(soil, body.height)
-        why = _no_reference(body, loading)
+        why = no_reference(body, loading)
         if len(soil.soils) > 1:
             return cls._of_layers(soil, loading, body, q, why)
         scales = (soil.c_v, soil.c2, soil.undrained_ratio, q, H)
-        if why:
-            return cls(*scales, drained=(), why=why, why_degree=why)
         g, E_c, n = loading.gravity, soil.constrained_modulus, soil.porosity
+        if why:
+            return cls(*scales, drained=(), why=why, why_degree=why,
+                       hydrostatic=soil.rho_l * g)
         initial = tuple(
             tuple(v / q for v in analytic.undrained_excess(
                 loading.load, H, n, E_c, K_l, soil.rho_s, soil.rho_l, g))
@@ -120,7 +126,7 @@ class References:
         why_degree = why or ("" if drained else "no drained side: the mean pore pressure "
                              "and the settlement do not change, U is undefined")
         return cls(ground.c_v, ground.c2, p0, q, H, drained=drained if not why else (),
-                   initial=initial, hydrostatic=ground.rho_l * g if not why else 0.0,
+                   initial=initial, hydrostatic=ground.rho_l * g,
                    why=why, why_degree=why_degree, layered=columns)
 
     @property
@@ -245,7 +251,11 @@ class Limits:
 class Plan:
     """A consolidation run, set up: everything the steps and the reporting read.
 
-    ``monitor_height`` (m) is the height of the monitor points; ``run`` the run's id and
+    ``monitor_height`` (m) is the height of the monitor points, ``monitor_x`` (m) the x of
+    a monitor point (NaN: the monitor is the mean of the row of points at that height, a
+    one-dimensional column's); ``probes`` where a scene without a closed form is watched
+    (:class:`solver.fe_reference.Probes`: the monitor, the axis under the load (:func:`axis`),
+    the column of points under it, the trough's x; None for a column); ``run`` the run's id and
     the options a restart takes up; ``signature`` the options that a checkpoint must
     match; ``scene`` the scene's signature for the work-precision data; ``provenance`` the
     options as the provenance records them; ``restart`` the checkpoint continued ('' for a
@@ -270,25 +280,36 @@ class Plan:
     resumed_id: str | None = None
     goal: dict | None = None
     target_error: float = math.nan
+    monitor_x: float = math.nan
+    probes: object = None
 
 
-def _no_reference(body: Body, loading: Loading) -> str:
+def axis(body: Body, loading: Loading) -> float:
+    """The x (m) of the axis under the load: the side a load on part of the top starts
+    from, where that side is on rollers (a half model's axis of symmetry), else the
+    middle of the loaded part (of the top, for a load over all of it)."""
+    W = body.size[0]
+    x0, x1 = loading.extent if loading.partial(W) else (0.0, W)
+    supports = body.supports
+    if loading.partial(W) and x0 <= 0 and "x" in supports["left"]:
+        return 0.0
+    if loading.partial(W) and x1 >= W and "x" in supports["right"]:
+        return W
+    return (x0 + x1) / 2
+
+
+def no_reference(body: Body, loading: Loading) -> str:
     """Why the scene is not a one-dimensional column with an analytic reference ('' when
     it is one)."""
     bcs = body.supports
     if loading.partial(body.size[0]):
         return ("a load over part of the top (-mpm_load_extent "
                 + ",".join(f"{x:g}" for x in loading.extent) + "), the consolidation is "
-                "two-dimensional; the settlement under the load is compared with static "
-                "solutions of its ends")
+                "two-dimensional")
     if set(body.drained) & {"left", "right"}:
         return ("drained through a side (-mpm_drained " + ",".join(body.drained) + "), the "
-                "consolidation is two-dimensional; solver.biot computes its reference "
-                "(docs/method.md)")
+                "consolidation is two-dimensional")
     if bcs["left"] != "x" or bcs["right"] != "x" or "y" not in bcs["bottom"]:
         return ("the supports (-mpm_bc_*) are not those of a one-dimensional column "
                 "(rollers on both sides, the base fixed vertically)")
-    if loading.gravity > 0 and "bottom" in body.drained:
-        return ("a drained base under gravity holds the pore pressure at 0, not at the "
-                "hydrostatic pressure, so the excess has no closed form")
     return ""

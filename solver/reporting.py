@@ -9,12 +9,13 @@ results to a :class:`Reporting` at its steps; the run's end calls :func:`print_r
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
 from petsc4py import PETSc
 
-from . import analytic, figures, frequency, output, settlement
+from . import analytic, fe_reference, figures, frequency, output, settlement
 from .fields import PointSeries
 
 ISOCHRONES = (0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.5, 2.0)
@@ -39,7 +40,8 @@ class Reporting:
         self.files = {}
         self.series = PointSeries(plan.outputs.folder, comm, plan.run["id"])
         self.surface = settlement.Surface(grid, plan.soil, plan.loading, self.H,
-                                          plan.body.ppc, refs)
+                                          plan.body.ppc, refs,
+                                          plan.probes.axis if plan.probes else None)
         self.heights = Heights()
         self.heights.refresh(points)
         if plan.restart:
@@ -71,7 +73,7 @@ class Reporting:
             state.reports.append(report(Tv, t, self.points, self.mpi, plan.refs,
                                         plan.monitor_height, self.heights))
             state.degree.append(self.surface.report(Tv, state.settlement[-1]))
-            if plan.loading.partial(plan.body.size[0]):     # a local load: its trough
+            if plan.probes is not None:     # a scene without a closed form: its trough
                 trough = self.surface.trough(self.points, self.mpi)
                 if trough is not None:
                     state.troughs.append((Tv, trough[0].tolist(), trough[1].tolist()))
@@ -95,6 +97,47 @@ def monitor_pressure(points, mpi):
     if mpi.Get_size() > 1:
         mpi.Allreduce(MPI.IN_PLACE, s, op=MPI.SUM)
     return s[0] / s[1]
+
+
+def place_monitor(points, H, wanted_y, wanted_x, mpi) -> tuple:
+    """Mark the monitor points in the field ``monitor``: the row of points nearest
+    ``wanted_y`` (m; NaN: the highest below mid-height of a body of height H) and, unless
+    ``wanted_x`` is NaN (the whole row, a column's monitor), in it the column nearest
+    ``wanted_x`` (m); ties go to the larger value. Returns their (x0 or NaN, y0) (m)
+    (collective)."""
+    with points.fields("x0", "monitor") as (x0, mon):
+        y0 = x0[:, 1]
+        if math.isnan(wanted_y):
+            from mpi4py import MPI
+
+            below = y0[y0 < H / 2 - 1e-12 * H]
+            y = mpi.allreduce(float(below.max()) if below.size else -np.inf, op=MPI.MAX)
+        else:
+            y = _nearest(y0, wanted_y, mpi, H)
+        row = np.abs(y0 - y) < 1e-9 * H
+        x = math.nan if math.isnan(wanted_x) else _nearest(x0[row, 0], wanted_x, mpi, H)
+        mon[:] = row if math.isnan(x) else row & (np.abs(x0[:, 0] - x) < 1e-9 * H)
+    return float(x), float(y)
+
+
+def _nearest(values, wanted, mpi, scale):
+    """The value nearest ``wanted`` of ``values`` on all ranks (ties: the larger);
+    ``scale`` (m) sets the tolerance of a tie (collective)."""
+    from mpi4py import MPI
+
+    gap = np.abs(values - wanted)
+    near = values[gap <= gap.min() + 1e-12 * scale].max() if values.size else np.inf
+    dist = mpi.allreduce(abs(near - wanted), op=MPI.MIN)
+    cand = near if abs(abs(near - wanted) - dist) < 1e-12 * scale else -np.inf
+    return mpi.allreduce(cand, op=MPI.MAX)
+
+
+def monitor_words(plan) -> str:
+    """Where the monitor is, in words: 'at (x, y) = (0.03125, 0.46875) m' or 'at y = 0.45 m
+    (the mean of its row of points)'."""
+    if math.isnan(plan.monitor_x):
+        return f"at y = {plan.monitor_height:.5g} m (the mean of its row of points)"
+    return f"at (x, y) = ({plan.monitor_x:.5g}, {plan.monitor_height:.5g}) m"
 
 
 def profile(points, comm):
@@ -198,11 +241,14 @@ def print_limits(comm, limits, dt, soil, body, scheme, patch, how):
     PETSc.Sys.Print("\n".join(lines), comm=comm)
 
 
-def print_reports(comm, reports, refs):
+def print_reports(comm, reports, refs, where=""):
     """The monitor's p / q at the report times against the scene's reference (``refs``),
-    or alone, with the reason, where the scene has none."""
+    or alone where the scene has none (and no FE reference, whose table has it);
+    ``where``: the monitor's place in words (:func:`monitor_words`)."""
     if not refs.available:
-        lines = ["Excess pore pressure p/q at the monitor point (no reference):",
+        if refs.fe is not None:
+            return
+        lines = [f"Excess pore pressure p/q at the monitor point {where} (no reference):",
                  f"{'T_v':>6s}{'p/q':>9s}"]
         lines += [f"{r['Tv']:6.2f}{r['p_over_q']:9.3f}" for r in reports]
         PETSc.Sys.Print("\n".join(lines), comm=comm)
@@ -222,6 +268,23 @@ def print_reports(comm, reports, refs):
                      f"{r['error_consistent_pct']:8.2f}%{r['l2_terzaghi']:10.4f}"
                      f"{r['l2_consistent']:10.4f}")
     PETSc.Sys.Print("\n".join(lines), comm=comm)
+
+
+def print_fe(comm, plan, state) -> dict | None:
+    """A scene without a closed form: the run against its FE reference at the report
+    times (:func:`fe_reference.compare`), printed; the summary's entry (without an FE
+    reference: why); None for a column."""
+    refs = plan.refs
+    if plan.probes is None:
+        return None
+    if refs.fe is None:
+        return fe_reference.summary(None, refs.fe_why)
+    rows = fe_reference.compare(refs.fe, refs.q, state.reports, state.degree,
+                                state.profiles, refs.excess)
+    loading = plan.loading
+    extent = loading.extent if loading.partial(plan.body.size[0]) else (0.0, plan.body.size[0])
+    fe_reference.print_comparison(comm, rows, refs.fe, extent)
+    return fe_reference.summary(refs.fe, "", rows)
 
 
 def write_files(plan, profiles, history):
@@ -245,6 +308,8 @@ def write_files(plan, profiles, history):
             if gravity:
                 cols.append(refs.excess(prof[:, 1], prof[:, 0]) / q)
             np.savetxt(fh, np.column_stack(cols), delimiter=",")
+    if refs.fe is not None:
+        files["fe_reference_csv"] = fe_reference.write_csv(folder, refs.fe, refs)
     if plan.outputs.figures:
         files.update(_figures(plan, profiles, hist))
     return files
@@ -253,8 +318,9 @@ def write_files(plan, profiles, history):
 def _figures(plan, profiles, hist):
     """isochrones, pressure_field and monitor in the plan's figure formats."""
     plt, out = output.pyplot(), plan.outputs
-    files = output.save_figures(_isochrone_figure(plt, plan, profiles), out.folder,
-                                "isochrones", out.formats)
+    draw = _axis_figure if plan.probes is not None else _isochrone_figure
+    files = output.save_figures(draw(plt, plan, profiles), out.folder, "isochrones",
+                                out.formats)
     shown = [pr for pr in profiles if pr[0] in plan.schedule.Tv_report] or profiles[-1:]
     excess = plan.refs.excess
     fig = figures.pressure_field(
@@ -288,6 +354,31 @@ def _isochrone_figure(plt, plan, profiles):
     return fig
 
 
+def _axis_figure(plt, plan, profiles):
+    """A scene without a closed form: the excess p / q of the column of points nearest its
+    axis against height at each isochrone time, with the FE's profile there."""
+    refs, pr = plan.refs, plan.probes
+    fe = refs.fe
+    spacing = np.min(np.diff(pr.trough)) if len(pr.trough) > 1 else refs.H
+    snapshots, lines = [], []
+    for Tv, t, prof in profiles:
+        mine = prof[np.abs(prof[:, 3] - pr.column) < spacing / 4]
+        order = np.argsort(mine[:, 0])
+        y = mine[order, 0]
+        snapshots.append((Tv, y, refs.excess(mine[order, 1], y) / refs.q))
+        try:
+            j = fe.index(t) if fe is not None else None
+        except KeyError:
+            j = None
+        if j is not None:
+            lines.append((Tv, np.linspace(0.0, refs.H, fe.line.shape[1]), fe.line[j] / refs.q))
+    return figures.axis_profiles(
+        plt, snapshots, lines, refs.H,
+        f"Pore pressure under the axis (x = {pr.column:.4g} m), {title(plan)}"
+        + (f"\nFE reference: Q9/Q4 {fe.cells[0]} x {fe.cells[1]} cells" if fe is not None
+           else ""), plan.soil)
+
+
 def _monitor_figure(plt, plan, hist):
     """p / q at the monitor point against T_v, with both references at its depth."""
     refs, height = plan.refs, plan.monitor_height
@@ -305,9 +396,14 @@ def _monitor_figure(plt, plan, hist):
                 label="reference, classic", **figures.CLASSIC)
         ax.plot(Tv, refs.pressure(height, Tv, "consistent"), color="k",
                 label="reference, compressible water", **figures.COMPRESSIBLE)
+    elif refs.fe is not None:
+        fe = refs.fe
+        ax.plot(refs.time_factor(fe.t), fe.monitor / refs.q, "k", marker=".",
+                label=f"FE reference ({fe.cells[0]} x {fe.cells[1]} Q9/Q4)", **figures.CLASSIC)
     ax.set_xscale("log")
     ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
-    ax.set_ylabel(f"p / q at {height:.4g} m (-)")
+    ax.set_ylabel(f"p / q at {height:.4g} m (-)" if math.isnan(plan.monitor_x)
+                  else f"excess p / q at ({plan.monitor_x:.4g}, {height:.4g}) m (-)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     return fig

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import assembly, shapes
+from .errors import InputError
 from .grid import Grid
 from .points import place
 
@@ -75,20 +76,29 @@ class Body:
         """(h_x, h_y) (m)."""
         return tuple(self.size[d] / self.cells[d] for d in (0, 1))
 
+    def point_columns(self) -> np.ndarray:
+        """The abscissae (m) of the columns of material points, ascending, computed as
+        :func:`points.place` places them."""
+        s, _ = shapes.uniform_1d(self.ppc) if self.placement == "uniform" else \
+            shapes.gauss_1d(self.ppc)
+        hx = self.cell_size()[0]
+        return ((np.arange(self.cells[0])[:, None] + (s[None, :] + 1) / 2) * hx).ravel()
+
 
 @dataclass(frozen=True)
 class Loading:
     """What drives consolidation: the surface pressure ``load`` q (Pa, downwards) on the
     top, reached linearly over ``ramp`` (s; 0: a step), and ``gravity`` (m/s2, down).
     ``geostatic``: the body starts at rest under gravity (hydrostatic pore pressure,
-    effective stress K0 times the vertical one sideways, ``K0`` NaN: nu / (1 - nu)), so
+    effective stress K0 times the vertical one sideways; ``K0`` one value or one per layer,
+    NaN: nu / (1 - nu)), so
     that only the load drives consolidation; else it starts unstressed (a fresh deposit)."""
 
     load: float = 10.0e3
     ramp: float = 0.0
     gravity: float = 0.0
     geostatic: bool = False
-    K0: float = math.nan
+    K0: object = math.nan   # a float, or a tuple: one per layer
     extent: tuple = ()      # (x0, x1) (m) of the loaded part of the top; (): all of it
 
     @classmethod
@@ -96,6 +106,27 @@ class Loading:
         return cls(load=p.load, ramp=p.load_ramp, gravity=p.gravity,
                    geostatic=p.initial_state == "geostatic", K0=p.K0,
                    extent=tuple(p.load_extent))
+
+    def check_extent(self, body: "Body") -> None:
+        """InputError for a load over part of the top that covers no column of ``body``'s
+        material points: the settlement under it is measured at those points (and the
+        static ends at their abscissae), so there would be nothing to measure. Names the
+        narrowest extent that works, reached by moving one end to the nearest column."""
+        if not self.partial(body.size[0]):
+            return
+        x0, x1 = self.extent
+        xs = body.point_columns()
+        if np.any((xs >= x0) & (xs <= x1)):
+            return
+        # Nearest columns right of x0 and left of x1 (one of them exists: x0 < x1 in [0, W]).
+        wider = [(right - x0, x0, right) for right in xs[xs > x1][:1]] \
+            + [(x1 - left, left, x1) for left in xs[xs < x0][-1:]]
+        width, a, b = min(wider)
+        raise InputError(f"-mpm_load_extent {x0:g},{x1:g}: covers no column of material "
+                         "points, where the settlement under the load is measured; the "
+                         f"narrowest load that works from there is -mpm_load_extent "
+                         f"{a:g},{b:g} ({width:g} m wide, to the points at x = "
+                         f"{b if b != x1 else a:g} m)")
 
     def partial(self, width: float) -> bool:
         """Whether the load covers only part of a top of this width (m)."""
@@ -122,10 +153,11 @@ def geostatic_state(points, body, soil, loading) -> None:
     d = H - y0 (m), gamma' = (1 - n)(rho_s - rho_l) g the buoyant weight (in layered
     ground, sigma'_yy the buoyant weight above, K0 each layer's): the state at rest
     under gravity with the water table at the surface. It is in equilibrium with the step's
-    body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides)."""
+    body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides).
+    Points that carry the pressure's gradient (the corner projection) get (0, -rho_l g)."""
     g, layers = loading.gravity, soil.soils
-    K0 = np.array([s.nu / (1 - s.nu) if math.isnan(loading.K0) else loading.K0
-                   for s in layers])
+    given = loading.K0 if isinstance(loading.K0, tuple) else (loading.K0,) * len(layers)
+    K0 = np.array([s.nu / (1 - s.nu) if math.isnan(k) else k for s, k in zip(layers, given)])
     buoyant = np.array([(1 - s.porosity) * (s.rho_s - s.rho_l) * g for s in layers])
     thickness = np.asarray(getattr(soil, "thickness", (body.height,)), dtype=float)
     # The effective stress at each layer's top: the buoyant weight of the layers above.
@@ -141,6 +173,10 @@ def geostatic_state(points, body, soil, loading) -> None:
             sig[:, 1] = -(above[layer] + buoyant[layer] * (tops[layer] - x0[:, 1]))
         sig[:, 0] = K0[layer] * sig[:, 1]
         sig[:, 2] = 0.0
+    if "gradp" in points.layout:
+        # The pressure's gradient (Pa/m), for the corner projection's liquid force.
+        with points.fields("gradp") as gradp:
+            gradp[:] = (0.0, -soil.rho_l * g)
 
 
 def top_forces(grid, loading) -> np.ndarray:
@@ -165,6 +201,37 @@ def top_forces(grid, loading) -> np.ndarray:
         N = shapes.lagrange1d(order, 2 * (x - left[c]) / h - 1)[0]
         top[order * c:order * c + order + 1] += (w[:, None] * N).sum(axis=0) * (b[c] - a[c]) / 2
     return loading.load * top
+
+
+def water_forces(grid, drained, gamma_w: float, blend: float = 1.0) -> np.ndarray:
+    """The nodal forces (N per m depth), (nodes_y, nodes_x, 2), of the water outside the
+    ``drained`` left, right and bottom sides on the body, at its hydrostatic pressure
+    gamma_w (H - y) (Pa; gamma_w in N/m3, the water table at the surface): -int N p n ds
+    over each side (3-point Gauss per cell edge, exact for the element's polynomials). A
+    drained side held at that pressure keeps the water table; without this force it would
+    be held at p = 0 and drain it. ``blend`` < 1 gives the forces in the blended basis
+    w N + (1 - w) N_Q4 (shapes.blended) of a quadratic cell's liquid."""
+    s, w = shapes.gauss_1d(3)
+    order, H = grid.order, grid.size[1]
+    N = blend * shapes.lagrange1d(order, s)[0]                 # (3 Gauss points, order + 1)
+    N[:, [0, order]] += (1 - blend) * shapes.lagrange1d(1, s)[0]
+    F = np.zeros((grid.nodes[1], grid.nodes[0], 2))
+    for side in ("left", "right", "bottom"):
+        if side not in drained:
+            continue
+        d = 0 if side == "bottom" else 1                       # the direction along the side
+        h, cells = grid.h[d], grid.cells[d]
+        t = (np.arange(cells)[:, None] + (1 + s) / 2) * h      # along the side, per edge
+        p = gamma_w * (H - (t if d == 1 else 0.0 * t))
+        edge = np.einsum("g,cg,ga->ca", w * h / 2, p, N)       # (cells, order + 1)
+        f = np.zeros(grid.nodes[d])
+        for a in range(order + 1):
+            f[a:a + order * cells:order] += edge[:, a]
+        if side == "bottom":
+            F[0, :, 1] += f                                    # n = -y: pushes up
+        else:
+            F[:, 0 if side == "left" else -1, 0] += f if side == "left" else -f
+    return F
 
 
 def destroy(*objects) -> None:

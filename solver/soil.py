@@ -162,6 +162,17 @@ PER_LAYER = ("E", "nu", "rho_s", "porosity", "k")
 FLUID = ("rho_l", "K_l", "mu_l")
 
 
+def check_count(name: str, value, layers) -> None:
+    """InputError when the option ``-mpm_<name>`` gives a list (``value`` a tuple) of
+    another length than the layers ``layers`` (``-mpm_layers``; empty: one layer)."""
+    count = len(layers) or 1
+    if isinstance(value, tuple) and len(value) != count:
+        hint = ("of -mpm_layers; give one value or one per layer" if layers else
+                "(a list needs -mpm_layers, one thickness per layer)")
+        raise InputError(f"-mpm_{name} {_text(value)}: {len(value)} values for "
+                         f"{count} layer(s) {hint}")
+
+
 @dataclass(frozen=True)
 class Ground:
     """Horizontal layers of soil from the surface down: ``thickness`` (m) and one
@@ -202,11 +213,7 @@ class Ground:
         thickness = tuple(layers) or (H,)
         count = len(thickness)
         for name, value in values.items():
-            if isinstance(value, tuple) and len(value) != count:
-                hint = ("of -mpm_layers; give one value or one per layer" if layers else
-                        "(a list needs -mpm_layers, one thickness per layer)")
-                raise InputError(f"-mpm_{name} {_text(value)}: {len(value)} values for "
-                                 f"{count} layer(s) {hint}")
+            check_count(name, value, layers)
         _check_thickness(thickness, H, h_y)
         soils = tuple(Soil(**{name: v[i] if isinstance(v, tuple) else v
                               for name, v in values.items()}) for i in range(count))

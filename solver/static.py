@@ -23,6 +23,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import assembly, shapes
+from .errors import check_converged
 from .grid import Grid
 from .points import place
 from .scene import top_forces
@@ -75,16 +76,17 @@ def settlements(comm, body, soil, loading, element="q9", ppc=3) -> Ends:
             place(grid, body.ppc, density, body.placement) as points:
         nodes = np.linspace(0.0, body.size[0], grid.nodes[0])
         for name, Dk in stiffness.items():
-            top = _top_displacement(grid, points, Dk, body, loading)
+            top = _top_displacement(grid, points, Dk, body, loading, name)
             out[name] = None if top is None else (
                 -float(np.mean(_along_top(grid, top, xs))), tuple(-top))
     u, d = comm.tompi4py().bcast((out["undrained"], out["drained"]), root=0)
     return Ends(u[0], d[0], tuple(nodes), u[1], d[1])
 
 
-def _top_displacement(grid, points, D, body, loading):
+def _top_displacement(grid, points, D, body, loading, name):
     """The vertical displacement (m) of the top row's nodes under the load with the
-    stiffness D (Pa), solved by KSP; on rank 0 (None elsewhere)."""
+    stiffness D (Pa), solved by KSP; on rank 0 (None elsewhere). NumericalError (on every
+    rank) when the KSP did not converge; ``name`` (undrained, drained) says which."""
     K, M, free = assembly.stiffness_and_mass(grid, points, D, body.supports)
     M.destroy()
     f = grid.da.createGlobalVec()
@@ -105,6 +107,8 @@ def _top_displacement(grid, points, D, body, loading):
         ksp.getPC().setFactorSolverType("mumps")
         ksp.setFromOptions()
         ksp.solve(rhs, u)
+        check_converged(ksp, f"the static {name} settlement (options -static_ksp_*, "
+                             "-static_pc_*)")
         f.set(0.0)
         f.setValues(free.getIndices(), u.getArray())
         f.assemble()

@@ -145,8 +145,8 @@ def read_scene(path: str, extra=()):
     """The options of scene file ``path`` with ``extra`` (``["-mpm_k", "1e-9", ...]``) on
     top, read and checked as the solver reads them (for a study that derives its runs'
     settings from the scene, e.g. the mass-scaling factor or the wave period)."""
-    from . import options
+    from . import options, scenefile
 
-    pairs = options._file_pairs(path) + options._pairs(list(extra))
+    pairs = scenefile.pairs(path) + options._pairs(list(extra))
     return options.from_mapping({name[len(options.PREFIX):]: value for name, value in pairs
                                  if name.startswith(options.PREFIX)})

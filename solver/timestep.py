@@ -23,6 +23,7 @@ from petsc4py import PETSc
 from . import assembly, shapes
 from .grid import Grid
 from .points import place
+from .soil import Ground
 
 # Dense stability analysis of the whole grid up to this many unknowns, else on a patch: the
 # largest of the paper's scenes (M2-Q8/Q9, M3-Q4: 1640) and no more. Its cost grows as the
@@ -86,16 +87,33 @@ def discrete_limit(comm, body, soil, scheme) -> tuple:
         small = _patch(body.element, cells, ESTIMATE_STATE)
         layers = soil.soils
         whole = tuple(cells) == tuple(body.cells)
-        # Layered ground: the whole grid with each point's material; a patch holds one
-        # layer, so every layer gets its patch and the smallest limit governs.
-        estimate = None if small == cells else min(
-            _limit_on(body, layer, scheme, small) for layer in layers)
+        # Layered ground: the whole grid with each point's material; on a patch, every
+        # layer gets its patch and so does every interface (the nodes on it mix both
+        # layers' masses, drag and flux porosity), and the smallest limit governs.
         if len(layers) == 1 or whole:
-            limit = _limit_on(body, soil, scheme, cells, estimate)
+            patches = (soil,)
         else:
-            limit = min(_limit_on(body, layer, scheme, cells, estimate) for layer in layers)
+            patches = tuple(layers) + _interfaces(soil, body, cells)
+        estimate = None if small == cells else min(
+            _limit_on(body, one, scheme, small) for one in patches)
+        limit = min(_limit_on(body, one, scheme, cells, estimate) for one in patches)
         limit *= viscous_factor(scheme.bulk_viscosity)
     return comm.tompi4py().bcast(limit, root=0), cells
+
+
+def _interfaces(ground, body, cells) -> tuple:
+    """Two-layer grounds (soil.Ground) for patches of ``cells`` cells of the body's size, one
+    for each interface of ``ground``: the layers above and below it, the interface in the
+    middle of the patch at the same place within its cell as in the body."""
+    h = body.size[1] / body.cells[1]
+    Hp = cells[1] * h
+    tops = body.size[1] - np.cumsum(ground.thickness)[:-1]      # interface heights (m)
+    out = []
+    for i, y in enumerate(tops):
+        frac = y / h - np.floor(y / h)
+        yi = min(max((cells[1] // 2 + frac) * h, 0.5 * h), Hp - 0.5 * h)
+        out.append(Ground((Hp - yi, yi), ground.soils[i:i + 2]))
+    return tuple(out)
 
 
 def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
@@ -172,20 +190,30 @@ def _linear_parts(grid, points, body, soil, scheme):
     sig = np.einsum("ij,pjk->pik" if D.ndim == 2 else "pij,pjk->pik", D, B)
     sig = np.concatenate([sig, np.zeros_like(sig)], axis=2)            # on (U_s, U_l)
     # dp = -(K_l / n) (div u_s + n div(u_l - u_s)), the relative motion in the liquid's
-    # basis: (1 - n) div u_s + n div u_l when that is N.
-    n = np.reshape(n, (-1, 1))
-    pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
+    # basis: (1 - n) div u_s + n div u_l when that is N. In layers the relative motion is
+    # the nodes' Darcy flux n_q (u_l - u_s), n_q = Q / sum w_l V c_q / n (kernels).
+    n, flux = np.reshape(n, (-1, 1)), None
+    if len(soil.soils) > 1:
+        nq = Q * _inv(Wl.T @ (mat["drag_coefficient"] / n.ravel() * V))
+        flux = nq / n                 # (K_l / n) q = K_l (n_q / n) w, per point and node
+        pres = -(soil.K_l / n) * np.hstack([div - Dl * np.tile(nq, 2), Dl * np.tile(nq, 2)])
+    else:
+        pres = -(soil.K_l / n) * np.hstack([div - n * Dl, n * Dl])
     if scheme.pressure_projection == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
         Sw = Wm.T @ V
         pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
                       * (Wm * V[:, None]).T) @ pres)
+    fl = None
+    if scheme.pressure_projection == "corner":
+        pres, fl = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread, flux)
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     # sum_p V_p B_p^T sig_p as one matrix product (BLAS; einsum's loops took seconds on M3).
     npt, ncomp, ncol = B.shape
     fm = -(B * V[:, None, None]).reshape(npt * ncomp, ncol).T @ sig.reshape(npt * ncomp, -1)
-    fl = Dl.T @ (V[:, None] * pres)
+    if fl is None:
+        fl = Dl.T @ (V[:, None] * pres)
     Rs = _inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
     Rl = _inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
     R = np.zeros((4 * nn, 4 * nn))
@@ -200,6 +228,27 @@ def _linear_parts(grid, points, body, soil, scheme):
     return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
             "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
             "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
+
+
+def _corner_pressure(grid, x, body, V, n, K_l, div, Nl, spread, flux=None):
+    """The corner projection's point pressures and liquid force, linear in U = (U_s, U_l)
+    (kernels._to_corners): nodal P = (sum V [-(K_l/n) N4 div u_s + K_l grad N4 . w]) /
+    sum N4 V, w = N_l (u_l - u_s) (in layers N_l (n_q / n) (u_l - u_s), ``flux`` the
+    points' x nodes' n_q / n: the Darcy flux over the point's n), held (0) on the drained
+    sides; p = N4 P at the points (npnt x 4 nn) and f_l = -sum N_l V grad(N4 P)
+    (2 nn x 4 nn)."""
+    ci = assembly.interpolation(grid, x, corner=True)
+    L, Lx, Ly = spread(ci.N), spread(ci.dNdx[..., 0]), spread(ci.dNdx[..., 1])
+    Z = np.zeros_like(Nl)
+    Nw = Nl if flux is None else Nl * flux
+    wx, wy = np.hstack([-Nw, Z, Nw, Z]), np.hstack([Z, -Nw, Z, Nw])
+    ds = np.hstack([div, np.zeros_like(div)])
+    num = L.T @ (-(K_l / n) * V[:, None] * ds) + K_l * (Lx.T @ (V[:, None] * wx)
+                                                         + Ly.T @ (V[:, None] * wy))
+    held = grid.constrained_mask({side: "x" for side in body.drained})[::2]
+    P = np.where(held, 0.0, _inv(L.T @ V))[:, None] * num
+    fl = -np.vstack([Nl.T @ (V[:, None] * (Lx @ P)), Nl.T @ (V[:, None] * (Ly @ P))])
+    return L @ P, fl
 
 
 def _point_material(soil, y) -> dict:

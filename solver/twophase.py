@@ -61,10 +61,10 @@ import numpy as np
 from petsc4py import PETSc
 
 from . import kernels, shapes
-from .scene import top_forces
+from .scene import top_forces, water_forces
 from .scheme import Scheme
 from .errors import NumericalError
-from .kernels import NB, NF, NG
+from .kernels import NB, NF, NG, NGL, NLS
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
 POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
@@ -74,8 +74,12 @@ POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "i
 def point_fields(scheme, layered: bool = False) -> dict:
     """The point fields of a run with ``scheme``: POINT_FIELDS, with the viscous stress (Pa)
     of -mpm_bulk_viscosity and the slow mixture velocity (m/s) of -mpm_fast_damping when
-    on, and in layered ground the point's layer (its index from the surface down)."""
+    on, in layered ground the point's layer (its index from the surface down), and with
+    the corner pressure projection the gradient of the pore pressure (Pa/m), which the
+    liquid force takes (kernels.points_to_grid)."""
     fields = dict(POINT_FIELDS)
+    if scheme.pressure_projection == "corner":
+        fields["gradp"] = 2
     if layered:
         fields["layer"] = 1
     if scheme.bulk_viscosity > 0:
@@ -145,14 +149,20 @@ class TwoPhase:
         # Small kinematics: shape functions at the initial positions x0 (a point's cell never
         # changes, so nothing migrates); large: at the current positions.
         self.small = scheme.kinematics == "small"
-        self.project = scheme.pressure_projection == "nodal"
+        # Pressure projection: 0 none, kernels.PNODAL or PCORNER; the corner projection's
+        # nodal pairs (sum N_Q4 V dp, sum N_Q4 V) take two fields per node.
+        self.project = {"none": 0, "nodal": kernels.PNODAL,
+                        "corner": kernels.PCORNER}[scheme.pressure_projection]
+        self.pfields = 2 if self.project == kernels.PCORNER else 1
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
         self.hrz = self.lumping != "rowsum"
-        # Layers: per-point material (kernels.NL reals per layer), three more nodal sums.
+        # Layers: per-point material (kernels.NL reals per layer), NLS more nodal sums and
+        # the nodal Darcy flux among the results.
         self.layers = soil.soils
         self.layered = len(self.layers) > 1
-        self.nf = NF + self.blend + 3 * self.layered
+        self.nf = NF + self.blend + NLS * self.layered
+        self.ngf = NGL if self.layered else NG
         first = self.layers[0]
         self.D = first.elasticity()
         n = first.porosity
@@ -173,7 +183,9 @@ class TwoPhase:
         assert not self.serial or self.ng == self.nown
         self.fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2)
         self.fixed_l = grid.constrained_mask(body.impermeable).reshape(-1, 2)
+        self.drained = grid.constrained_mask({s: "x" for s in body.drained})[::2]
         self.traction = self._traction(loading)
+        self.water = self._water(body, loading)
         self._R, self._B = self._reals(), self._node_data()
         # Ghosted-local offsets of a cell's nodes from its node (0, 0); a tuple, whose
         # length selects the kernels' machine code for the cell type.
@@ -228,6 +240,20 @@ class TwoPhase:
             force[-1] = -top_forces(g, loading)[g.xs:g.xe]
         return force.ravel()
 
+    def _water(self, body, loading):
+        """Owned nodal forces (N per m; nodes x 2 for the mixture, then 2 for the liquid in
+        its basis) of the water outside the drained sides at its hydrostatic pressure
+        under gravity (:func:`scene.water_forces`); zeros without gravity."""
+        g = self.grid
+        out = np.zeros((self.nown, 4))
+        gamma_w = self.layers[0].rho_l * loading.gravity
+        if gamma_w > 0:
+            own = np.s_[g.ys:g.ye, g.xs:g.xe]
+            out[:, :2] = water_forces(g, body.drained, gamma_w)[own].reshape(-1, 2)
+            blend = shapes.BLEND if self.blend else 1.0
+            out[:, 2:] = water_forces(g, body.drained, gamma_w, blend)[own].reshape(-1, 2)
+        return out
+
     def _integers(self, I):
         """The kernels' integers (kernels.I*, into the context I): scheme flags and grid
         numbering."""
@@ -240,6 +266,7 @@ class TwoPhase:
         I[K.ISTX], I[K.ISTY] = g.order, g.order * g.gxm
         I[K.INOWN] = self.nown
         I[K.ILAYERS] = len(self.layers) if self.layered else 0
+        I[K.IWATER] = int(self._B.reshape(-1, NB)[:, 6:].any())
 
     def _reals(self):
         """The kernels' real data (kernels.R*, SI units)."""
@@ -271,16 +298,21 @@ class TwoPhase:
                 row[[K.LCS, K.LCL, K.LCQ]] = self._lumped(layer)
                 row[K.LGM] = layer.density * gy
                 row[K.LN] = layer.porosity
+                row[K.LCK] = layer.drag_coefficient / layer.porosity
                 row[K.LD:] = layer.elasticity().ravel()
         return R
 
     def _node_data(self):
         """Per owned node (kernels.NB values): the load's force for a load factor of 1 (N
-        per m), then 1 on the free and 0 on the fixed DOFs of v_s (x, y) and v_l (x, y)."""
+        per m), then 1 on the free and 0 on the fixed DOFs of v_s (x, y) and v_l (x, y),
+        then 0 on a drained side (the corner projection holds the pressure there), else 1,
+        then the water's force on the mixture and on the liquid (x, y each, N per m)."""
         B = np.empty((self.nown, NB))
         B[:, 0] = self.traction
         B[:, 1:3] = ~self.fixed_s
         B[:, 3:5] = ~self.fixed_l
+        B[:, 5] = ~self.drained
+        B[:, 6:] = self.water
         return B.ravel()
 
     def _nodal_arrays(self):
@@ -292,18 +324,18 @@ class TwoPhase:
         are fetched once."""
         if self.serial:
             self._Gl = self._G = np.zeros(self.ng * self.nf)
-            self._O = self._Og = np.zeros(self.ng * NG)
-            self._pn = self._pg = np.zeros(self.ng if self.project else 0)
+            self._O = self._Og = np.zeros(self.ng * self.ngf)
+            self._pn = self._pg = np.zeros(self.ng * self.pfields if self.project else 0)
             return
         da = self.grid.da
-        self.da_f, self.da_g = da.duplicate(dof=self.nf), da.duplicate(dof=NG)
+        self.da_f, self.da_g = da.duplicate(dof=self.nf), da.duplicate(dof=self.ngf)
         self.loc_f, self.glob_f = self.da_f.createLocalVec(), self.da_f.createGlobalVec()
         self.loc_g, self.glob_g = self.da_g.createLocalVec(), self.da_g.createGlobalVec()
         self._Gl, self._G = self.loc_f.getArray(), self.glob_f.getArray()
         self._O, self._Og = self.loc_g.getArray(), self.glob_g.getArray()
         self._pn = self._pg = np.zeros(0)
         if self.project:
-            self.da_p = da.duplicate(dof=1)
+            self.da_p = da.duplicate(dof=self.pfields)
             self.loc_p, self.glob_p = self.da_p.createLocalVec(), self.da_p.createGlobalVec()
             self._pn, self._pg = self.loc_p.getArray(), self.glob_p.getArray()
 
@@ -339,13 +371,15 @@ class TwoPhase:
         self.visc = pts.views("visc") if self.eta else None
         self.vslow = pts.views("vslow") if self.fast_rate else None
         self.layer = pts.views("layer") if self.layered else None
+        self.gradp = pts.views("gradp") if self.project == kernels.PCORNER else None
         self.xref = self.x0 if self.small else self.x
         self.n_local = pts.n_local
         slots = {K.PX: self.x, K.PXREF: self.xref, K.PV: self.V, K.PVS: self.vs,
                  K.PVL: self.vl, K.PSIG: self.sig, K.PP: self.pp, K.PJ: self.J,
-                 K.PVISC: self.visc, K.PVSLOW: self.vslow, K.PLAYER: self.layer}
+                 K.PVISC: self.visc, K.PVSLOW: self.vslow, K.PLAYER: self.layer,
+                 K.PGRADP: self.gradp}
         C = self._C
-        C[K.PN:K.PLAYER + 1] = 0
+        C[K.PN:K.PGRADP + 1] = 0
         C[K.PN] = self.n_local
         for slot, a in slots.items():
             if a is not None:
@@ -357,9 +391,10 @@ class TwoPhase:
 
     @property
     def _locgT(self):
-        """The nodal results of the last step, field-major (NG, ghosted-local nodes): a_s,
-        a_l, v_s^{k+1}, v_l^{k+1}, x and y each (m/s2, m/s; tests read them)."""
-        return self._O.reshape(self.ng, NG).T
+        """The nodal results of the last step, field-major (NG or NGL, ghosted-local nodes):
+        a_s, a_l, v_s^{k+1}, v_l^{k+1} (and in layers the Darcy flux q), x and y each (m/s2,
+        m/s; tests read them)."""
+        return self._O.reshape(self.ng, self.ngf).T
 
     # -- one step --------------------------------------------------------------------------
     def step(self, dt: float, load_factor: float, damping: float, flip: float):

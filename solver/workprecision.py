@@ -139,7 +139,10 @@ def pick(p, target: float, path: str = ""):
         raise InputError(f"-mpm_target_error: the work-precision data ({path}) judge the "
                          "monitor point only; run scripts/convergence-study again to measure "
                          "the profile and U too")
-    runs = [r for r in data["runs"] if math.isfinite(r.get("measure", math.nan))]
+    measured = [r for r in data["runs"] if math.isfinite(r.get("measure", math.nan))]
+    choices = {k: getattr(p, k) for k in ("lumping", "kinematics", "pressure_projection",
+                                           "liquid_basis")}
+    runs = [r for r in measured if _same_scheme(r, choices)]
     meets = sorted((r for r in runs if r["measure"] <= target), key=lambda r: r["cost"])
     if not meets:
         best = min(runs, key=lambda r: r["measure"])
@@ -157,6 +160,10 @@ def pick(p, target: float, path: str = ""):
              f"({choice['worst']}), {choice['steps']} steps of {choice['n_points']} points "
              f"({choice['cost']:.3g} point-steps), the cheapest of {len(meets)} that meet "
              "it; its time on this machine is measured from its first steps"]
+    if len(runs) < len(measured):
+        lines.append(f"  {len(measured) - len(runs)} measured runs left out: their scheme "
+                     "(kinematics, pressure projection, liquid basis, lumping) is not what "
+                     "these options give their cell type")
     cheaper = [r for r in runs if r["cost"] < choice["cost"]]
     if cheaper:
         near = min(cheaper, key=lambda r: r["measure"])
@@ -167,6 +174,16 @@ def pick(p, target: float, path: str = ""):
         lines.append("  this overrides " + ", ".join(
             f"-mpm_{k} {_text(getattr(p, k))}" for k in given))
     return choice, lines, tuple(data["Tv"])
+
+
+def _same_scheme(run, choices: dict) -> bool:
+    """Whether ``run`` was measured with the scheme that the scheme options ``choices``
+    ({name: value or 'auto'}) resolve to on its cell type (data measured before a default
+    changed are not; a run that did not record its scheme is taken as it is)."""
+    from .scheme import AUTO_KEYS, Scheme
+
+    scheme = Scheme.resolve(run["element"], choices)
+    return all(run.get(k, getattr(scheme, k)) == getattr(scheme, k) for k in AUTO_KEYS)
 
 
 def _value(run, key):

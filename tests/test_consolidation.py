@@ -128,7 +128,9 @@ SCHEMES = [("m2-q4", 2, []), ("m1-q9", 2, []), ("m1-q4", 3, []), ("m2-q4", 4, []
            ("m2-q4", 2, ["-mpm_kinematics", "large", "-mpm_pressure_projection", "none"]),
            ("m1-q9", 2, ["-mpm_kinematics", "large", "-mpm_pressure_projection", "nodal"]),
            ("m1-q8", 2, ["-mpm_kinematics", "large", "-mpm_liquid_basis", "element"]),
-           ("m1-q9", 2, ["-mpm_liquid_basis", "blended", "-mpm_gravity", "9.81"])]
+           ("m1-q9", 2, ["-mpm_liquid_basis", "blended", "-mpm_gravity", "9.81"]),
+           ("m1-q8", 2, ["-mpm_pressure_projection", "corner"]),
+           ("m1-q9", 3, ["-mpm_pressure_projection", "corner", "-mpm_kinematics", "large"])]
 
 
 @pytest.mark.parametrize("case,ranks,extra", [
@@ -175,7 +177,9 @@ LIMITS = [("m1-q4", []), ("m2-q4", []), ("m1-q9", []), ("m1-q8", []),
           ("m2-q4", ["-mpm_pressure_projection", "none"]),
           ("m1-q9", ["-mpm_pressure_projection", "nodal"]),
           ("m1-q8", ["-mpm_pressure_projection", "nodal"]),
-          ("m1-q9", ["-mpm_liquid_basis", "blended"])]
+          ("m1-q9", ["-mpm_liquid_basis", "blended"]),
+          ("m1-q9", ["-mpm_pressure_projection", "corner"]),
+          ("m1-q8", ["-mpm_pressure_projection", "corner"])]
 
 
 @pytest.mark.parametrize("case,extra", LIMITS,

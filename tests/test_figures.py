@@ -138,3 +138,42 @@ def test_pressure_field_of_a_wide_body_stacks_its_panels():
     assert all(abs(b.y0 - boxes[1][0].y0) < 1e-9 for b in boxes[1])      # one row
     for f in (wide, tall):
         plt.close(f)
+
+
+def test_profile_under_the_axis_names_each_time_and_draws_the_fe():
+    """A scene without a closed form: the column under the axis at each T_v, named in the
+    legend, with the FE's profile in the same colour (issue 27: the overlay of every
+    column had no labels and no time legend)."""
+    plt = output.pyplot()
+    y = np.linspace(0.05, 0.95, 10)
+    snaps = [(Tv, y, np.exp(-Tv) * (1 - y)) for Tv in (0.01, 0.1, 0.5)]
+    lines = [(Tv, np.linspace(0, 1, 5), np.full(5, Tv)) for Tv in (0.01, 0.5)]
+    fig = figures.axis_profiles(plt, snaps, lines, 1.0, "t")
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["T_v = 0.01", "T_v = 0.1", "T_v = 0.5", "FE reference", "MPM points"]
+    drawn = [ln for ln in ax.get_lines() if len(ln.get_xdata())]
+    assert len(drawn) == 5                      # three columns of points, two FE profiles
+    fe = [ln for ln in drawn if ln.get_marker() in ("None", "", None)]
+    assert len(fe) == 2 and fe[1].get_color() is not None
+    np.testing.assert_allclose(fe[1].get_xdata(), 0.5)
+    plt.close(fig)
+
+
+def test_settlement_time_of_a_scene_without_a_closed_form():
+    """The settlement at the axis and the mean under the load, the run's and the FE's,
+    named, against time in the scene's unit, with the static ends of the mean."""
+    plt = output.pyplot()
+    t = np.geomspace(1e-2, 2e4, 50)              # 5.6 hours
+    fe = (t[::5], 2e-3 * np.ones(10), 1e-3 * np.ones(10), (64, 32))
+    fig = figures.settlement_time_2d(plt, t, 2e-3 * np.ones(50), 1e-3 * np.ones(50), 0.0,
+                                     (0.0, 0.5), fe, (0.8e-3, 3e-3), "t")
+    ax = fig.axes[0]
+    labels = [x.get_text() for x in ax.get_legend().get_texts()]
+    assert labels == ["MPM, at the axis x = 0 m",
+                      "MPM, mean under the load (0 <= x <= 0.5 m)",
+                      "FE (64 x 32 Q9/Q4), at the axis", "FE (64 x 32 Q9/Q4), mean under the load"]
+    assert ax.get_xlabel() == "time t (h)" and ax.yaxis_inverted()
+    mm = sorted({round(float(ln.get_ydata()[0]), 6) for ln in ax.get_lines()})
+    assert mm == [0.8, 1.0, 2.0, 3.0]           # mm: the curves and the static ends
+    plt.close(fig)

@@ -189,7 +189,8 @@ def test_layer_interfaces_are_drawn_at_the_layer_bottoms():
 @pytest.mark.parametrize("scene, extra", [
     ("consolidation-layered", ["-mpm_Tv_end", "0.01", "-mpm_Tv_report", "0.005,0.01"]),
     ("consolidation-strip-layered", ["-mpm_cells", "16,8", "-mpm_Tv_end", "0.01",
-                                     "-mpm_Tv_report", "0.005,0.01"])])
+                                     "-mpm_Tv_report", "0.005,0.01", "-mpm_fe_cells",
+                                     "32,16"])])
 def test_layered_scenes_agree_on_one_and_two_ranks(cli, tmp_path, scene, extra):
     """The layered scenes of cases/ (shortened: gravity, geostatic start and mass scaling;
     a local load with its static ends) on 1 and 2 ranks: reports and profiles equal to
@@ -207,3 +208,6 @@ def test_layered_scenes_agree_on_one_and_two_ranks(cli, tmp_path, scene, extra):
         for key in ("undrained_m", "final_m", "settlement_last_m"):
             assert runs[1]["static_references"][key] == pytest.approx(
                 runs[0]["static_references"][key], rel=1e-10)
+        for key in ("fe_settlement_mean_m", "settlement_axis_m", "fe_p_over_q"):
+            np.testing.assert_allclose(runs[1]["fe_reference"][key],
+                                       runs[0]["fe_reference"][key], rtol=1e-9)

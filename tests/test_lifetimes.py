@@ -60,7 +60,7 @@ def test_two_phase_body_and_model_as_with_blocks(ranks):
         every = sorted(int(i) for part in PETSc.COMM_WORLD.tompi4py().allgather(list(ids))
                        for i in part)
         assert every == list(range(points.n_global))
-        model.step(1e-7, 1.0, p.damping, p.flip)
+        model.step(1e-7, 1.0, p.damping, t.scheme.flip)
     assert not grid.da.handle and not points.swarm.handle
     assert model._C is None
 

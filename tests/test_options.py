@@ -228,7 +228,7 @@ def test_every_consolidation_option_rejected_for_eigen():
         if opt.default != opt.default:      # NaN default (automatic): give a valid value
             value = "1"
         if value == "":                     # empty default: a file name, or a list
-            value = {"floats": "0,0.05"}.get(opt.kind, "some-file")
+            value = {"floats": "0,0.05", "ints": "4,2"}.get(opt.kind, "some-file")
         with pytest.raises(InputError, match=f"-mpm_{opt.name}"):
             read({opt.name: value})
         # ... and accepted with -mpm_analysis consolidation.
@@ -266,12 +266,12 @@ def test_from_mapping_equals_read_over_a_command_line(scene):
     the Params the command line gives (the command line with an override on top)."""
     from petsc4py import PETSc
 
-    from solver import options
+    from solver import options, scenefile
 
     path = str(REPO / "cases" / f"{scene}.opts")
     argv = ["-options_file", path, "-mpm_cells", "2,20", "-mpm_figures", "0"]
     expected = _from_command_line(argv)
-    words = {name[len("mpm_"):]: value for name, value in options._file_pairs(path)}
+    words = {name[len("mpm_"):]: value for name, value in scenefile.pairs(path)}
     before = PETSc.Options().getAll()
     got = options.from_mapping({**words, "cells": "2,20", "figures": "0"})
     assert PETSc.Options().getAll() == before

@@ -87,15 +87,21 @@ def test_lateral_drainage_has_no_reference_and_says_so(cli, tmp_path):
     reason."""
     res = cli(["-mpm_analysis", "consolidation", "-mpm_size", "1.2,1.2", "-mpm_cells", "4,4",
                "-mpm_drained", "left,right", "-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05",
-               "-mpm_progress", "0", "-mpm_figures", "0"], out_dir=tmp_path)
+               "-mpm_progress", "0", "-mpm_figures", "0", "-mpm_fe_reference", "0"],
+              out_dir=tmp_path)
     s = check_ok(res)
     assert res.stdout.count("No analytic reference for this scene: drained through a side") == 1
+    assert res.stdout.count("No FE reference: turned off (-mpm_fe_reference 0)") == 1
     lines = res.stdout.splitlines()
-    table = lines.index("Excess pore pressure p/q at the monitor point (no reference):")
+    # The monitor: the point nearest the middle of the load (the whole top) at mid-height.
+    table = lines.index("Excess pore pressure p/q at the monitor point at (x, y) = "
+                        "(0.675, 0.525) m (no reference):")
     assert lines[table + 1].split() == ["T_v", "p/q"] and len(lines[table + 2].split()) == 2
     assert "Terzaghi" not in res.stdout
     assert "Degree of consolidation: none (drained through a side" in res.stdout
-    assert set(s["monitor"]) == {"height", "Tv", "p_over_q"} and "profile_l2" not in s
+    assert set(s["monitor"]) == {"x", "height", "Tv", "p_over_q"} and "profile_l2" not in s
+    assert s["fe_reference"] == {"available": False,
+                                 "why": "turned off (-mpm_fe_reference 0)"}
     assert s["reference"]["available"] is False
     assert "U_settlement" not in s["consolidation_degree"]
     def no_nan(word):
@@ -189,16 +195,23 @@ def test_static_ends_of_a_column_are_the_closed_forms(element, ppc):
 def test_strip_footing_settles_to_its_static_final_settlement(cli, tmp_path):
     """A strip load on a quarter of the top of a 2 m x 1 m block (the axis of symmetry at
     x = 0, rollers), drained at the top, Q4 16 x 8 cells: no analytic reference (one line,
-    no error columns); the settlement under the load at T_v = 2 within 2 % of the static
+    no Terzaghi columns); the settlement under the load at T_v = 2 within 2 % of the static
     final settlement (Q9 on the same cells; measured -1.3 %, -0.54 % on 32 x 16), and the
-    trough within 2 % of the largest settlement everywhere."""
+    trough within 2 % of the largest settlement everywhere. Against its FE reference
+    (Q9/Q4 32 x 16 cells): the settlement at the axis within 1 % at T_v = 0.01 and 2
+    (measured -0.25, +0.04 %), its mean under the load within 2 % at T_v = 2 (-1.0 %; -6 %
+    at T_v = 0.01, where the coarse cells smear the load's edge), the monitor under the
+    axis within 0.5 % of q at T_v = 2."""
     res = cli(["-mpm_cells", "16,8", "-mpm_Tv_end", "2", "-mpm_Tv_report", "0.01,2",
-               "-mpm_progress", "0", "-mpm_figures", "0"],
+               "-mpm_progress", "0", "-mpm_figures", "0", "-mpm_fe_cells", "32,16"],
               options_file="consolidation-strip", out_dir=tmp_path)
     s = check_ok(res)
     assert res.stdout.count("No analytic reference for this scene: a load over part of the "
                             "top (-mpm_load_extent 0,0.5)") == 1
     assert "Terzaghi" not in res.stdout and s["reference"]["available"] is False
+    fe = s["fe_reference"]
+    assert np.all(np.abs(fe["error_settlement_axis_pct"]) < 1.0), fe
+    assert abs(fe["error_settlement_mean_pct"][-1]) < 2.0 and abs(fe["error_p_pct_of_q"][-1]) < 0.5
     ends = s["static_references"]
     assert abs(ends["error_final_pct"]) < 2.0
     assert ends["settlement_first_m"] < ends["settlement_last_m"]
@@ -216,7 +229,7 @@ def test_strip_footing_on_clay_starts_at_its_static_undrained_settlement(cli, tm
     from K_l / n; measured -0.34 %, -1.5 % on 16 x 8, -3.4 % on 8 x 4)."""
     s = check_ok(cli(["-mpm_cells", "32,16", "-mpm_k", "1e-9", "-mpm_mass_scaling", "none",
                       "-mpm_Tv_end", "1e-6", "-mpm_Tv_report", "5e-7,1e-6", "-mpm_progress",
-                      "0", "-mpm_figures", "0"],
+                      "0", "-mpm_figures", "0", "-mpm_fe_reference", "0"],
                      options_file="consolidation-strip", out_dir=tmp_path))
     ends = s["static_references"]
     assert abs(ends["settlement_last_m"] / ends["undrained_m"] - 1) < 0.02
@@ -235,7 +248,8 @@ def test_load_extent_outside_the_top_is_one_line(cli, tmp_path):
     ["-mpm_load", "0", "-mpm_gravity", str(G), "-mpm_cells", "1,20"],
     ["-mpm_gravity", str(G), "-mpm_initial_state", "geostatic", "-mpm_cells", "1,20"],
     ["-mpm_size", "2,1", "-mpm_cells", "8,4", "-mpm_load_extent", "0,0.5", "-mpm_drag",
-     "implicit", "-mpm_mass_scaling", "auto"]], ids=["self-weight", "geostatic", "strip"])
+     "implicit", "-mpm_mass_scaling", "auto", "-mpm_fe_cells", "16,8"]],
+    ids=["self-weight", "geostatic", "strip"])
 def test_new_scenes_agree_on_one_and_two_ranks(cli, tmp_path, args):
     """The new scenes' reports, profiles and static ends on 1 and 2 ranks (as python -m
     solver under mpirun): equal to 1e-10 of q (the last digits differ: sums in another
@@ -255,6 +269,12 @@ def test_new_scenes_agree_on_one_and_two_ranks(cli, tmp_path, args):
         for key in ("undrained_m", "final_m", "settlement_last_m"):
             assert runs[1]["static_references"][key] == pytest.approx(
                 runs[0]["static_references"][key], rel=1e-10)
+    if "fe_reference" in runs[0]:       # solved on rank 0, the run's side on every rank
+        one, two = runs[0]["fe_reference"], runs[1]["fe_reference"]
+        assert one["available"] and one["monitor_m"] == two["monitor_m"]
+        for key in ("fe_p_over_q", "fe_settlement_axis_m", "settlement_axis_m",
+                    "settlement_mean_m", "error_profile_max_pct_of_q"):
+            np.testing.assert_allclose(two[key], one[key], rtol=1e-9, atol=1e-12)
 
 
 def test_laterally_drained_block_ends_are_its_static_ones(cli, tmp_path):
@@ -267,10 +287,15 @@ def test_laterally_drained_block_ends_are_its_static_ones(cli, tmp_path):
              "-mpm_E", "8e6", "-mpm_nu", "0.2", "-mpm_porosity", "0.4", "-mpm_load", "15e3",
              "-mpm_drained", "left,right", "-mpm_progress", "0", "-mpm_figures", "0"]
     clay = check_ok(cli(block + ["-mpm_k", "1e-9", "-mpm_mass_scaling", "none", "-mpm_Tv_end",
-                                 "1e-6", "-mpm_Tv_report", "1e-6"], out_dir=tmp_path / "a"))
+                                 "1e-6", "-mpm_Tv_report", "1e-6", "-mpm_fe_reference", "0"],
+                        out_dir=tmp_path / "a"))
     ends = clay["static_references"]
     assert abs(ends["settlement_last_m"] / ends["undrained_m"] - 1) < 0.02
     long = check_ok(cli(block + ["-mpm_k", "2e-4", "-mpm_drag", "implicit",
                                  "-mpm_mass_scaling", "auto", "-mpm_Tv_end", "2",
-                                 "-mpm_Tv_report", "0.05,2"], out_dir=tmp_path / "b"))
+                                 "-mpm_Tv_report", "0.05,2", "-mpm_fe_cells", "16,16"],
+                        out_dir=tmp_path / "b"))
     assert abs(long["static_references"]["error_final_pct"]) < 2.0
+    # Its FE reference (the axis: the middle x = 0.6 m): within 1 % at T_v = 2.
+    fe = long["fe_reference"]
+    assert fe["axis_x_m"] == 0.6 and abs(fe["error_settlement_axis_pct"][-1]) < 1.0, fe

@@ -23,6 +23,8 @@ from petsc4py import PETSc
 from solver import assembly, kernels, twophase
 from solver.grid import Grid
 from solver.points import place
+from solver.scene import water_forces
+from solver.shapes import BLEND
 
 
 def _params(**opts):
@@ -66,6 +68,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     it = assembly.interpolation(grid, st["x0"] if small else x)
     N, dN, nodes = it.N, it.dNdx, it.nodes
     w = assembly.lumping_weights(N, scheme.lumping)
+    corner_it = assembly.interpolation(grid, st["x0"] if small else x, corner=True)
     # The liquid equation's weights and test functions: w and N, or N_hat for both.
     if scheme.liquid_basis == "blended":
         bl = assembly.interpolation(grid, st["x0"] if small else x, blended=True)
@@ -78,7 +81,7 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     wm, wt = ms + ml, mt
     ms, ml, mt = S * ms, S * ml, S * mt
     npnt, nen = N.shape
-    C = np.empty((npnt, nen, 12))
+    C = np.empty((npnt, nen, 13))
     C[..., 0] = w * ms[:, None]
     C[..., 1] = wl * ml[:, None]                # the liquid's weights throughout
     C[..., 2] = wl * mt[:, None]
@@ -91,10 +94,15 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     C[..., 8] = -(dN[..., 0] * sxx[:, None] + dN[..., 1] * sxy[:, None])
     C[..., 9] = -(dN[..., 0] * sxy[:, None] + dN[..., 1] * syy[:, None])
     C[..., 10:12] = dNl * (pp * V)[:, None, None]
+    corner = scheme.pressure_projection == "corner"
+    if corner:
+        # The liquid force in gradient form: -N_l V grad p, grad p the points' field.
+        C[..., 10:12] = -(Nl * V[:, None])[..., None] * st["gradp"][:, None, :]
     C[..., 8:10] += (N * wm[:, None])[..., None] * gvec
     C[..., 10:12] += (Nl * wt[:, None])[..., None] * gvec
-    G = np.bincount((nodes[..., None] * 12 + np.arange(12)).ravel(), weights=C.ravel(),
-                    minlength=ng * 12).reshape(-1, 12)
+    C[..., 12] = wl * (drag / n * V)[:, None]
+    G = np.bincount((nodes[..., None] * 13 + np.arange(13)).ravel(), weights=C.ravel(),
+                    minlength=ng * 13).reshape(-1, 13)
     Ms, Ml, Mt, Q = G[:, 0], G[:, 1], G[:, 2], G[:, 3]
 
     def inv(M):
@@ -103,6 +111,11 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     vs_n, vl_n = G[:, 4:6] * inv(Ms)[:, None], G[:, 6:8] * inv(Ml)[:, None]
     fm = G[:, 8:10].copy()
     fm[:, 1] += load_factor * traction
+    # The water outside drained sides under gravity, at its hydrostatic pressure.
+    drained = tuple(s for s in p.drained if s != "none")
+    fm += water_forces(grid, drained, p.rho_l * p.gravity).reshape(-1, 2)
+    G[:, 10:12] += water_forces(grid, drained, p.rho_l * p.gravity,
+                                BLEND if scheme.liquid_basis == "blended" else 1.0).reshape(-1, 2)
     if damping:
         fm -= damping * np.abs(fm) * np.sign(Ms[:, None] * vs_n + Ml[:, None] * vl_n)
     fs = grid.constrained_mask(bcs).reshape(-1, 2)
@@ -136,8 +149,12 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
         vs -= dt * fast * (vm - vslow)
         vl -= dt * fast * (vm - vslow)
     Ls = np.einsum("pai,paj->pij", Hn[..., 4:6], dN)
-    # Relative motion in the liquid's basis: div v_s + n div(v_l - v_s).
-    div_w = np.einsum("pai,pai->p", Hn[..., 6:8] - Hn[..., 4:6], dNl)
+    # Relative motion in the liquid's basis: div v_s + n div(v_l - v_s); in layers n div_w
+    # is the divergence of the nodes' Darcy flux n_q (v_l - v_s), n_q = Q / sum w_l V drag / n.
+    flux = Hn[..., 6:8] - Hn[..., 4:6]
+    if len(soil.soils) > 1:
+        flux = flux * (Q * inv(G[:, 12]))[nodes][..., None] / n[:, None, None]
+    div_w = np.einsum("pai,pai->p", flux, dNl)
     eps = np.stack([Ls[:, 0, 0], Ls[:, 1, 1], Ls[:, 0, 1] + Ls[:, 1, 0]], axis=1)
     sig += dt * np.einsum("pij,pj->pi", D, eps)
     div_s = Ls[:, 0, 0] + Ls[:, 1, 1]
@@ -146,7 +163,22 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     J *= 1 + dt * div_s
     if visc is not None:
         visc[:] = eta * div_s
-    if scheme.pressure_projection == "nodal":
+    if corner:
+        # Onto the corners' bilinear field N4: sum V (N4 dt K_l/n div v_s - grad N4 . dt
+        # K_l w), w = v_l - v_s in the liquid's basis (the weak divergence), over sum N4 V;
+        # held on the drained sides; back to p and grad p.
+        w_l = np.einsum("pa,pai->pi", Nl, flux)     # in layers the flux over n
+        vals = V[:, None] * (corner_it.N * (dt * p.K_l / n * div_s)[:, None]
+                             - np.einsum("pai,pi->pa", corner_it.dNdx, dt * p.K_l * w_l))
+        num = np.bincount(nodes.ravel(), weights=vals.ravel(), minlength=ng)
+        den = np.bincount(nodes.ravel(), weights=(corner_it.N * V[:, None]).ravel(),
+                          minlength=ng)
+        held = grid.constrained_mask({s: "x" for s in p.drained if s != "none"})[::2]
+        pn = np.where(held, 0.0, num * inv(den))
+        back = corner_it if small else assembly.interpolation(grid, x, corner=True)
+        dp = np.einsum("pa,pa->p", back.N, pn[back.nodes])
+        st["gradp"] -= np.einsum("pai,pa->pi", back.dNdx, pn[back.nodes])
+    elif scheme.pressure_projection == "nodal":
         # Lumped projection onto the nodes, back at the points' new positions.
         num = np.bincount(nodes.ravel(), weights=(w * (V * dp)[:, None]).ravel(), minlength=ng)
         den = np.bincount(nodes.ravel(), weights=(w * V[:, None]).ravel(), minlength=ng)
@@ -237,6 +269,23 @@ CASES = [
          bulk_viscosity=0.2, fast_damping=0.3, flip=0.5),
     dict(element="q8", cells="3,30", ppc=3, layers="0.5,0.5", k="1e-4,1e-5",
          lumping="hrz", drained="bottom", mass_scaling=10),
+    # The corner projection (pressure on the corner nodes' bilinear field), both
+    # kinematics, drained through the sides, with the blended basis and layers.
+    dict(element="q8", cells="4,4", ppc=3, size="1.2,1.2", drained="left,right",
+         pressure_projection="corner"),
+    dict(element="q9", cells="4,4", ppc=3, size="1.2,1.2", drained="left,right,top",
+         pressure_projection="corner", kinematics="large", drag="explicit", flip=0.5),
+    dict(element="q8", cells="3,30", ppc=3, kinematics="large", pressure_projection="corner",
+         gravity=9.81, bulk_viscosity=0.2),
+    dict(element="q9", cells="3,30", ppc=3, lumping="hrz", liquid_basis="blended",
+         pressure_projection="corner", layers="0.4,0.6", E="40e6,10e6", k="1e-4,1e-5"),
+    dict(element="q4", cells="4,40", pressure_projection="corner", kinematics="large"),
+    # Drained sides under gravity (the water's hydrostatic force) with porosity jumps.
+    dict(element="q4", cells="8,8", size="1.2,1.2", drained="top,right,bottom", gravity=9.81,
+         layers="0.6,0.6", porosity="0.3,0.5", E="40e6,10e6"),
+    dict(element="q8", cells="3,30", ppc=3, liquid_basis="blended", lumping="hrz",
+         drained="top,bottom", gravity=9.81, layers="0.5,0.5", porosity="0.3,0.5",
+         pressure_projection="corner"),
 ]
 
 
@@ -278,6 +327,10 @@ def test_step_matches_reference(opts):
         with points.fields("vslow") as vslow:
             vslow[:] = rng.normal(size=vslow.shape) * 1e-4
         names["vslow"] = "vslow"
+    if scheme.pressure_projection == "corner":
+        with points.fields("gradp") as gradp:
+            gradp[:] = rng.normal(size=gradp.shape) * 1e4
+        names["gradp"] = "gradp"
     ref = dict(zip(names, points.get(*names.values())))
     ref["layer_y"] = ref["x0"][:, 1].copy()
     if layered:
@@ -295,10 +348,10 @@ def test_step_matches_reference(opts):
                 x[move, 1] = np.minimum(x[move, 1] + grid.h[1], p.size[1] - 1e-9)
                 ref["x"][:] = x
         ramp = 0.5 + 0.25 * k
-        model.step(dt, ramp, p.damping, p.flip)
+        model.step(dt, ramp, p.damping, scheme.flip)
         model.migrate_if_needed((0, 0))
-        _reference_step(grid, p, scheme, bcs, model.traction, ref, dt, ramp, p.damping, p.flip,
-                        t.soil)
+        _reference_step(grid, p, scheme, bcs, model.traction, ref, dt, ramp, p.damping,
+                        scheme.flip, t.soil)
     # The step compiled nothing: every kernel variant was made (or loaded) at set-up.
     assert kernels.compile_counts() == compiled
     del names["x0"], names["V"]
@@ -315,11 +368,15 @@ RANK_CASES = [
             "nodal", "-mpm_bulk_viscosity", "0.2", "-mpm_fast_damping", "0.3", "-mpm_flip",
             "0.5", "-mpm_gravity", "9.81"]),
     ("q8", ["-mpm_ppc", "3", "-mpm_drag", "explicit"]),
+    ("q9", ["-mpm_ppc", "3", "-mpm_pressure_projection", "corner", "-mpm_kinematics",
+            "large", "-mpm_drained", "top,left"]),
+    ("q8", ["-mpm_ppc", "3", "-mpm_pressure_projection", "corner"]),
 ]
 
 
 @pytest.mark.mpi(2)
-@pytest.mark.parametrize("element,extra", RANK_CASES, ids=[c[0] for c in RANK_CASES])
+@pytest.mark.parametrize("element,extra", RANK_CASES,
+                         ids=[c[0] + "-corner" * ("corner" in c[1]) for c in RANK_CASES])
 def test_two_ranks_equal_one_rank(cli, tmp_path, element, extra):
     """The consolidation scene M2 (2 x 20 cells, cut between the ranks across the column)
     run on 1 and on 2 ranks: every field of every material point in the last checkpoint
