@@ -556,10 +556,8 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
         dp = ((divs + A[rlx, 8] + A[rly, 9]) if layered is not None else
               (divs * cdiv + dvl * n_)) * kdp
         if project == PCORNER:
-            # The relative flux times dt K_l / n (Pa m), in the liquid's basis.
-            fx, fy = ((A[rnl, 8] * kdp, A[rnl, 9] * kdp) if layered is not None else
-                      ((A[rnl, 6] - A[rnl, 4]) * (n_ * kdp), (A[rnl, 7] - A[rnl, 5]) * (n_ * kdp)))
-            _to_corners(off, offs, pacc, base, xn, yn, R, V[k], divs * kdp, fx, fy)
+            _to_corners(off, offs, pacc, base, xn, yn, R, divs * kdp,
+                        _corner_terms(A, rnl, layered, V[k], dt, kdp, n_))
         elif project:
             _to_nodes(off, offs, pacc, base, S[rw], V[k], dp)
         else:
@@ -653,12 +651,24 @@ def _to_nodes(off, offs, pacc, base, w, V, dp):
 
 
 @_jit
-def _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, fx, fy):
-    """The corner projection's sums of one point at natural (xn, yn), volume V (m3): into
-    the two fields of its cell's corners, V (N_Q4 ds - grad N_Q4 . f) and N_Q4 V, with
-    ds = dt (K_l / n) div v_s (Pa) and f = (fx, fy) = dt K_l (v_l - v_s) (Pa m) in the
-    liquid's basis (in layers dt (K_l / n) q, the Darcy flux): its divergence in weak
-    form.
+def _corner_terms(A, rnl, layered, V, dt, kdp, n_):
+    """(V (m3), fx, fy (Pa m)) of :func:`_to_corners` for a point of volume V: the relative
+    flux times dt K_l / n in the liquid's basis (rows rnl of A), dt K_l (v_l - v_s); in
+    layers the Darcy flux dt (K_l / n) q with V weighted by the storage n / K_l (1/Pa), so
+    that the jump of n at an interface is no source (the weak form of (n / K_l) dp/dt =
+    -div v_s - div q)."""
+    if layered is not None:
+        return V * (dt / kdp), A[rnl, 8] * kdp, A[rnl, 9] * kdp
+    f = n_ * kdp
+    return V, (A[rnl, 6] - A[rnl, 4]) * f, (A[rnl, 7] - A[rnl, 5]) * f
+
+
+@_jit
+def _to_corners(off, offs, pacc, base, xn, yn, R, ds, terms):
+    """The corner projection's sums of one point at natural (xn, yn): into the two fields
+    of its cell's corners, V (N_Q4 ds - grad N_Q4 . f) and N_Q4 V, with ds = dt (K_l / n)
+    div v_s (Pa) and ``terms`` = (V, fx, fy) (:func:`_corner_terms`): V (m3) and
+    f = dt K_l (v_l - v_s) (Pa m) in the liquid's basis: its divergence in weak form.
 
     Why the weak form: the points integrate the cell's products of functions only to
     first degree (3 x 3 sub-cell centres), and the strong form's N_Q4 div(N_l) is of
@@ -666,6 +676,7 @@ def _to_corners(off, offs, pacc, base, xn, yn, R, V, ds, fx, fy):
     every resolution. With grad N_Q4 . N_l and the liquid force in gradient form
     (points_to_grid) the Darcy flux sums N_l V as the drag does, and the diffusion is
     exact cell by cell for a quadratic pressure (docs/method.md)."""
+    V, fx, fy = terms
     n4, dx4, dy4 = shapes.q4(xn, yn, R[RSX], R[RSY])
     N = carray(_on_stack((n4, dx4, dy4)), (3, 4))
     c = carray(_on_stack(_corners(off)), 4)

@@ -243,10 +243,11 @@ def _corner_pressure(grid, x, body, V, n, K_l, div, Nl, spread, flux=None):
     Nw = Nl if flux is None else Nl * flux
     wx, wy = np.hstack([-Nw, Z, Nw, Z]), np.hstack([Z, -Nw, Z, Nw])
     ds = np.hstack([div, np.zeros_like(div)])
-    num = L.T @ (-(K_l / n) * V[:, None] * ds) + K_l * (Lx.T @ (V[:, None] * wx)
-                                                         + Ly.T @ (V[:, None] * wy))
+    # In layers weighted by the storage n / K_l (kernels._corner_terms).
+    Vc = V[:, None] * (n / K_l if flux is not None else 1.0)
+    num = L.T @ (-(K_l / n) * Vc * ds) + K_l * (Lx.T @ (Vc * wx) + Ly.T @ (Vc * wy))
     held = grid.constrained_mask({side: "x" for side in body.drained})[::2]
-    P = np.where(held, 0.0, _inv(L.T @ V))[:, None] * num
+    P = np.where(held, 0.0, _inv(L.T @ Vc.ravel()))[:, None] * num
     fl = -np.vstack([Nl.T @ (V[:, None] * (Lx @ P)), Nl.T @ (V[:, None] * (Ly @ P))])
     return L @ P, fl
 

@@ -10,6 +10,8 @@
 * ``ref_shapes`` (fixture): Q4/Q8/Q9 shape functions written independently of
   ``solver.shapes`` (generic 1D Lagrange products and the serendipity formulas), used as the
   reference of the shape-function and dense-assembly tests.
+* ``readme_section``, ``readme_table``, ``readme_outputs``, ``check_readme_outputs``: the
+  README's sections and tables, for the tests that hold them to the code.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import ctypes
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -409,3 +412,55 @@ def typed(p):
     return SimpleNamespace(soil=soil, body=Body.from_options(p),
                            loading=Loading.from_options(p),
                            scheme=Scheme.from_options(p, soil, min(p.Tv_report)))
+
+
+# -- the README ----------------------------------------------------------------------------
+def readme_section(heading: str, path=REPO / "README.md") -> str:
+    """The text of the README's section whose ``## `` heading starts with ``heading``, up to
+    the next ``## `` heading."""
+    text = Path(path).read_text()
+    start = text.index(f"\n## {heading}")
+    end = text.find("\n## ", start + 1)
+    return text[start:end if end >= 0 else len(text)]
+
+
+def readme_table(heading: str) -> list:
+    """The rows of the first table of the README's section ``heading``, each a list of its
+    cells (stripped; ``\\|`` stays in a cell), header and separator left out."""
+    rows = [line for line in readme_section(heading).splitlines() if line.startswith("|")]
+    return [[cell.strip() for cell in re.split(r"(?<!\\)\|", line)[1:-1]] for line in rows[2:]]
+
+
+def readme_outputs() -> dict:
+    """{file name: its row's cells joined} of the README's outputs table."""
+    rows = readme_table("Outputs")
+    names = {}
+    for row in rows:
+        found = re.fullmatch(r"`([^`]+)`", row[0])
+        assert found, f"outputs table: the first cell names one file in backticks: {row[0]}"
+        names[found.group(1)] = " | ".join(row[1:])
+    return names
+
+
+def _readme_name(name: str) -> str:
+    """The outputs table's name of a file a run wrote: a figure by its PNG name whatever its
+    format, a step's HDF5 file as points_<step>.h5."""
+    stem, _, ext = name.rpartition(".")
+    if ext in ("png", "pdf", "svg"):
+        return f"{stem}.png"
+    return re.sub(r"_[0-9]+[.]h5$", "_<step>.h5", name)
+
+
+def check_readme_outputs(folder):
+    """Every file in ``folder`` has a row of the outputs table; a CSV file's row names each
+    column of its header (in backticks)."""
+    table = readme_outputs()
+    written = sorted(p for p in folder.rglob("*") if p.is_file() and not p.name.startswith("."))
+    assert written
+    for path in written:
+        name = _readme_name(path.name)
+        assert name in table, f"{path.name}: not in the README's outputs table"
+        if path.suffix == ".csv":
+            header = path.read_text().splitlines()[0].split(",")
+            missing = [col for col in header if f"`{col}`" not in table[name]]
+            assert not missing, f"{path.name}: columns {missing} not in its row"

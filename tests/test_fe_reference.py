@@ -16,7 +16,7 @@ import re
 
 import numpy as np
 import pytest
-from conftest import REPO, check_ok, run_cli
+from conftest import check_ok, check_readme_outputs, readme_section, run_cli
 
 from solver import fe_reference, plan
 from solver.scene import Body, Loading
@@ -188,18 +188,14 @@ def test_fe_reference_csv(strip):
     assert t[0] >= 10 * res.summary["dt"] > t[0] / 2
 
 
-def _outputs_section():
-    text = (REPO / "README.md").read_text()
-    start = text.index("\n## Outputs")
-    return text[start:text.index("\n## ", start + 1)]
 
 
 def test_the_readme_lists_every_file_a_scene_without_a_closed_form_writes(strip):
     """Every file of the run (the summary's files, each on disk) is named in the README's
     Outputs: by file name, a figure by its name in backticks, a series' HDF5 files as
-    points_<step>.h5."""
+    points_<step>.h5; each CSV file's columns in its row of the table."""
     res, out = strip
-    readme = _outputs_section()
+    readme = readme_section("Outputs")
     files = [f for v in res.summary["files"].values() for f in (v if isinstance(v, list)
                                                                    else [v])]
     assert {p.name for p in out.iterdir() if not p.name.startswith(".")} == \
@@ -211,6 +207,7 @@ def test_the_readme_lists_every_file_a_scene_without_a_closed_form_writes(strip)
                                             in readme)
                  or f"`{re.sub(r'_[0-9]+[.]', '_<step>.', name)}`" in readme)
         assert named, name
+    check_readme_outputs(out)
     for name in ("settlement_trough.csv", "fe_reference.csv", "settlement_time",
                  "settlement_trough"):
         assert name in {p.name for p in out.iterdir()} | {p.stem for p in out.iterdir()}

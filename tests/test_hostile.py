@@ -136,16 +136,19 @@ def test_too_many_steps_are_refused(cli, tmp_path):
 
 
 def test_point_leaving_the_grid_stops_the_run(cli, tmp_path):
-    """An unsupported column falling under gravity: its lowest points leave the grid."""
+    """An unsupported column falling under gravity: its lowest points leave the grid. (Its
+    base impermeable: a drained base would stand in the water table, whose pressure buoys
+    the column.)"""
     res = cli(["-mpm_load", "0", "-mpm_gravity", "9.81", "-mpm_bc_bottom", "none",
-               "-mpm_drained", "top,bottom", "-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05",
+               "-mpm_drained", "top", "-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05",
                "-mpm_progress", "0", "-mpm_figures", "0"], options_file="consolidation-m1-q4",
               timeout=300)
     assert res.returncode == 3
     line = res.stderr.strip()
     assert "\n" not in line and "left the grid" in line and "step" in line
     assert res.summary["stable"] is False
-    # Free fall: the lowest points (y = 0.025 m) leave after sqrt(2 y / g) = 0.071 s.
+    # Free fall: the lowest points (y = 0.025 m) leave after sqrt(2 y / g) = 0.071 s or
+    # later, as the self-weight compresses the falling column (measured 0.103 s).
     t = float(line.split("t = ")[1].split(" ")[0])
     assert 0.06 < t < 0.12
 

@@ -168,10 +168,12 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
         # K_l w), w = v_l - v_s in the liquid's basis (the weak divergence), over sum N4 V;
         # held on the drained sides; back to p and grad p.
         w_l = np.einsum("pa,pai->pi", Nl, flux)     # in layers the flux over n
-        vals = V[:, None] * (corner_it.N * (dt * p.K_l / n * div_s)[:, None]
-                             - np.einsum("pai,pi->pa", corner_it.dNdx, dt * p.K_l * w_l))
+        # In layers weighted by the storage n / K_l: (n / K_l) dp = -(div v_s + div q) dt.
+        Vc = V * (n / p.K_l if len(soil.soils) > 1 else 1.0)
+        vals = Vc[:, None] * (corner_it.N * (dt * p.K_l / n * div_s)[:, None]
+                              - np.einsum("pai,pi->pa", corner_it.dNdx, dt * p.K_l * w_l))
         num = np.bincount(nodes.ravel(), weights=vals.ravel(), minlength=ng)
-        den = np.bincount(nodes.ravel(), weights=(corner_it.N * V[:, None]).ravel(),
+        den = np.bincount(nodes.ravel(), weights=(corner_it.N * Vc[:, None]).ravel(),
                           minlength=ng)
         held = grid.constrained_mask({s: "x" for s in p.drained if s != "none"})[::2]
         pn = np.where(held, 0.0, num * inv(den))

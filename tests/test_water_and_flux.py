@@ -55,17 +55,20 @@ def test_porosity_jump_keeps_its_water_q4(cli, tmp_path):
     assert max(_worst_against_column(s, tmp_path / "q4")) < 0.005
 
 
-def test_porosity_jump_converges_q9(cli, tmp_path):
-    """Q9 with 3 x 3 points on 1 x 10 and 1 x 20 cells: the largest error at T_v 0.05 falls
-    by about half with the cell (measured 2.53 -> 1.31 % of q; 0.67 % on 1 x 40) and is
-    below 1.5 % on 1 x 20."""
+@pytest.mark.parametrize("element, below", [("q9", 0.005), ("q8", 0.006)])
+def test_porosity_jump_converges_quadratic(cli, tmp_path, element, below):
+    """Q9 and Q8 with 3 x 3 points (their default corner projection) on 1 x 10 and 1 x 20
+    cells: the largest error at T_v 0.05 falls about fourfold with the cell (measured Q9
+    1.15 -> 0.24 %, Q8 1.64 -> 0.39 % of q; the corner projection weighs the storage
+    n / K_l, else Q8 stayed at 8.5 %)."""
     worst = []
     for n in (10, 20):
-        s = check_ok(cli(JUMP + ["-mpm_element", "q9", "-mpm_ppc", "3", "-mpm_cells",
-                                 f"1,{n}"], out_dir=tmp_path / f"q9-{n}", timeout=300))
-        worst.append(_worst_against_column(s, tmp_path / f"q9-{n}", (0.05,))[0])
-    assert worst[1] < 0.015
-    assert worst[1] < 0.6 * worst[0]
+        out = tmp_path / f"{element}-{n}"
+        s = check_ok(cli(JUMP + ["-mpm_element", element, "-mpm_ppc", "3", "-mpm_cells",
+                                 f"1,{n}"], out_dir=out, timeout=300))
+        worst.append(_worst_against_column(s, out, (0.05,))[0])
+    assert worst[1] < below
+    assert worst[1] < 0.4 * worst[0]
 
 
 @pytest.mark.parametrize("element", ["q4", "q8", "q9"])
