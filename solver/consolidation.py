@@ -207,7 +207,8 @@ def _set_up(p, comm, ctx) -> tuple:
     refs = References.of(soil, loading, body)
     if restart is not None:            # an end before the checkpoint: refused up front
         checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
-    scheme = Scheme.from_options(p, soil, min(p.Tv_report))
+    scheme = Scheme.from_options(p, soil, min(p.Tv_report),
+                                 inertia.slowest_period(comm, body, soil, loading))
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)
     t_wall = time.perf_counter()
@@ -339,7 +340,7 @@ def _check_dt(comm, limits, dt, soil, H, scheme, first_tv, allow_unstable) -> Li
     exceeded = [k for k, v in timestep.applicable(limits.steps, scheme.drag).items()
                 if dt > v]
     regime = inertia.regime(soil, H, first_tv, scheme.damping, scheme.fast_damping,
-                            scheme.mass_scaling)
+                            scheme.mass_scaling, scheme.wave_period)
     PETSc.Sys.Print(inertia.describe(regime), comm=comm)
     stability = timestep.stability_limits(limits.steps, scheme.drag)
     worst = max(stability, key=lambda k: dt / stability[k])

@@ -227,6 +227,8 @@ class TwoPhase:
         c1 = float(soil.wave_speeds(S)["c1"])
         self.eta = b1 * soil.density * S * c1 * min(self.grid.h)
         w1 = 2 * np.pi * c1 / (4 * H)
+        if not np.isnan(scheme.wave_period):      # a body's slowest mode, not the column's
+            w1 = 2 * np.pi / (scheme.wave_period * np.sqrt(S))
         self.fast_rate, self.slow_rate = 2 * zeta * w1, (w1 if zeta > 0 else 0.0)
 
     def _traction(self, loading):
