@@ -390,7 +390,8 @@ def _print_plan(comm, plan, n_points):
                     f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
                     f"liquid basis {scheme.liquid_basis}, pressure projection "
                     f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
-                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})",
+                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})"
+                    + (f", FLIP fraction {scheme.flip:g}" if scheme.flip != 1 else ""),
                     comm=comm)
     if body.element != "q4" and body.ppc < 3:
         # Measured on 1 x 20 cells (docs/studies.md): Q9 with 2 x 2 points was 10 % off
