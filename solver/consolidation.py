@@ -209,12 +209,14 @@ def _set_up(p, comm, ctx) -> tuple:
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
     soil = ground.as_material()
     scheme = Scheme.from_options(p, soil, min(p.Tv_report))
+    fields = point_fields(scheme, ground.count > 1)
+    if restart is not None:
+        checkpoint.check_fields(p.restart, restart[1], fields)
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)
     t_wall = time.perf_counter()
     signals.stage("set-up: the body")
-    grid, points = scene.two_phase_body(comm, body, soil,
-                                        point_fields(scheme, ground.count > 1))
+    grid, points = scene.two_phase_body(comm, body, soil, fields)
     ctx.owned += [grid, points]
     if restart is not None:
         state = RunState.from_dict(restart[2], scheme.mass_scaling)
