@@ -256,6 +256,18 @@ def _checkpoint_id(path):
     return run.get("id") if run else None
 
 
+def check_fields(path, layout: dict, fields: dict) -> None:
+    """InputError when the checkpoint's points (``layout``) lack a field that the run's
+    scheme keeps (``fields``, :func:`twophase.point_fields`): a checkpoint written before
+    a default scheme changed (the quadratic cells' pressure projection became 'corner',
+    which keeps the pressure's gradient)."""
+    missing = [name for name in fields if name not in layout]
+    if missing:
+        raise InputError(f"-mpm_restart {path}: its points lack the field '{missing[0]}' "
+                         "that the scheme of these options keeps (written before a default "
+                         "changed); run the scene again")
+
+
 def scatter(points, grid, fields, layout, position="x"):
     """Give this rank the checkpointed points of the cells it owns, located by the field
     ``position`` (the one the step's shape functions use)."""

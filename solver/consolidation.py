@@ -209,12 +209,14 @@ def _set_up(p, comm, ctx) -> tuple:
         checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
                                  inertia.slowest_period(comm, body, soil, loading))
+    fields = point_fields(scheme, ground.count > 1)
+    if restart is not None:
+        checkpoint.check_fields(p.restart, restart[1], fields)
     memory.check(body)             # a model that does not fit says so first
     inertia.check_feasible(p, scheme, soil, body)
     t_wall = time.perf_counter()
     signals.stage("set-up: the body")
-    grid, points = scene.two_phase_body(comm, body, soil,
-                                        point_fields(scheme, ground.count > 1))
+    grid, points = scene.two_phase_body(comm, body, soil, fields)
     ctx.owned += [grid, points]
     if restart is not None:
         state = RunState.from_dict(restart[2], scheme.mass_scaling)
@@ -391,7 +393,8 @@ def _print_plan(comm, plan, n_points):
                     f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
                     f"liquid basis {scheme.liquid_basis}, pressure projection "
                     f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
-                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})",
+                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})"
+                    + (f", FLIP fraction {scheme.flip:g}" if scheme.flip != 1 else ""),
                     comm=comm)
     if body.element != "q4" and body.ppc < 3:
         # Measured on 1 x 20 cells (docs/studies.md): Q9 with 2 x 2 points was 10 % off

@@ -35,7 +35,8 @@ spatial variation of density and porosity, and the analytic references are linea
 Scheme options (:class:`solver.scheme.Scheme`, docs/method.md): shape functions at the points'
 initial positions x0 (small kinematics) or current ones (large); pore-pressure increments
 kept per point or projected through the nodes (lumped L2 projection sum w V dp / S,
-interpolated back at x0 or at the new positions); the liquid equation in the element's
+interpolated back at x0 or at the new positions), or onto the corner nodes' bilinear field
+(kernels._to_corners: the flux term in weak form, the liquid force from grad p); the liquid equation in the element's
 basis or in the blended basis N_hat = N/2 + N_Q4/2 (Q8), which then also gives its masses
 and drag (a tenth nodal field S_l = sum N_hat V), its velocity transfers and the relative
 motion in the storage equation, dp = -(K_l / n) [div v_s + n div_hat(v_l - v_s)] dt.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -112,4 +113,31 @@ def test_bad_restart_file_is_an_input_error(cli, tmp_path, damage):
         assert f"the run of -mpm_restart {ckpt} has 10000000.0" in lines[0]
     else:
         assert len(lines) == 1 and lines[0].startswith("solver: error: -mpm_restart")
+    assert not out.exists()
+
+
+def test_checkpoint_without_a_field_of_the_scheme_is_an_input_error(cli, tmp_path):
+    """A checkpoint of Q9 cells written before their default pressure projection became
+    'corner' (whose points keep the pressure's gradient, gradp) cannot continue as the
+    scheme its options now give: one line, exit 2, nothing written."""
+    res = cli(SCENE + ["-mpm_element", "q9", "-mpm_ppc", "3", "-mpm_cells", "1,5",
+                       "-mpm_Tv_end", "0.002", "-mpm_Tv_report", "0.002",
+                       "-mpm_checkpoint_every", "20"],
+              options_file="consolidation-m1-q4", out_dir=tmp_path / "ck")
+    check_ok(res)
+    ckpt = tmp_path / "ck" / "checkpoint.npz"
+    with np.load(ckpt) as z:
+        members = {k: z[k] for k in z.files}
+    layout = json.loads(str(members["layout"]))
+    assert "gradp" in layout
+    start = sum(bs for name, bs in list(layout.items())[:list(layout).index("gradp")])
+    keep = [c for c in range(members["fields"].shape[1]) if not start <= c < start + 2]
+    members["fields"] = members["fields"][:, keep]
+    del layout["gradp"]
+    members["layout"] = np.array(json.dumps(layout))
+    np.savez(ckpt, **members)
+    out = tmp_path / "never"
+    res = cli(SCENE + ["-mpm_restart", ckpt], out_dir=out)
+    assert res.returncode == 2, res.stderr
+    assert res.stderr.count("\n") == 1 and "lack the field 'gradp'" in res.stderr
     assert not out.exists()

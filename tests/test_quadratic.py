@@ -144,9 +144,9 @@ def test_two_way_column_of_q8_cells(tmp_path):
     """The paper's column of Q8 cells drained at the top and the base, the default scheme
     (corner projection): every point within 1 % of q on 1 x 20 cells at T_v 0.05 / 0.2 /
     0.5, falling from 1 x 10, and no ramp repeated in every cell (point pressures, the
-    previous default, had one of 1.6 % of q at T_v 0.05 on 1 x 20, halving with the cell).
-    Measured: 1 x 10 0.48 / 0.29 / 0.04 %, 1 x 20 0.17 / 0.08 / 0.01 %, in-cell spread
-    0.10 % at T_v 0.05."""
+    previous default, had one of up to 1.8 % of q at T_v 0.05 on 1 x 20, halving with the
+    cell). Measured: 1 x 10 0.48 / 0.29 / 0.04 %, 1 x 20 0.17 / 0.08 / 0.01 %, the largest
+    spread in a cell 0.10 % at T_v 0.05 (scripts/quadratic-drainage)."""
     errs = {}
     for ny in (10, 20):
         out = tmp_path / str(ny)
