@@ -29,7 +29,7 @@ PREFIX.json, .txt, .png):
 - the Jacobi eigen solver (``scripts/eigen-study --benchmark``) and the whole-paper
   reproduction time (``scripts/reproduce-paper``, with ``--paper``) when those scripts exist.
 
-The models are built as ``consolidation.run`` builds them (``scene.two_phase_body``, then
+The models are built as ``consolidation.driver.run`` builds them (``scene.two_phase_body``, then
 TwoPhase) for the soil column of the paper (Table 2 soil, q = 10 kPa, 0.1 m x 1 m), with
 square cells, about ten times as many up as across, chosen to give the point count. The time
 step is fixed (1e-6 s, or a quarter of the undrained wave's transit time across a node spacing
@@ -56,14 +56,14 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, str(REPO))
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
-from solver import study  # noqa: E402  (standard library only)
+from solver.studies import study  # noqa: E402  (standard library only)
 
 TAG = "BENCH "
 PAPER_SCENES = {"M1-Q4": (1, 10), "M3-Q4": (4, 40)}
@@ -91,10 +91,10 @@ def maxrss() -> int:
 
 
 def column_params(cfg: dict):
-    """The solver's options (a ``solver.options.Params``) of the column ``cfg`` describes:
+    """The solver's options (a ``solver.io.options.Params``) of the column ``cfg`` describes:
     consolidation under q = 10 kPa, cell ``element``, ``cells`` (NX, NY), ``size`` (m) and
     ``ppc`` points per cell across, the rest as the solver's defaults (Table 2 soil)."""
-    from solver import options
+    from solver.io import options
 
     return options.from_mapping(
         {"analysis": "consolidation", "element": cfg["element"],
@@ -103,11 +103,11 @@ def column_params(cfg: dict):
 
 
 def build_model(comm, p, scheme):
-    """Grid, points and TwoPhase model of ``p``, built as ``consolidation.run`` builds them,
+    """Grid, points and TwoPhase model of ``p``, built as ``consolidation.driver.run`` builds them,
     and the seconds (wall) that took. The caller destroys the three."""
-    from solver import scene
-    from solver.soil import Soil
-    from solver.twophase import TwoPhase, point_fields
+    from solver.consolidation.explicit.twophase import TwoPhase, point_fields
+    from solver.model import scene
+    from solver.model.soil import Soil
 
     t0 = time.perf_counter()
     soil, body = Soil.from_options(p), scene.Body.from_options(p)
@@ -120,7 +120,7 @@ def fixed_dt(p, grid) -> float:
     """The benchmark's time step (s): 1e-6 s, or a quarter of the undrained wave's transit
     time across a node spacing when that is smaller. Not the CLI's critical time step,
     whose eigen analysis is dense: it would dominate the large models."""
-    from solver.soil import Soil
+    from solver.model.soil import Soil
 
     spacing = min(p.size[0] / p.cells[0], p.size[1] / p.cells[1]) / grid.order
     return min(1e-6, 0.25 * spacing / Soil.from_options(p).wave_speeds()["c1"])
@@ -157,9 +157,10 @@ def time_reports(points, comm, p) -> list:
     gathered on rank 0 (isochrones), the monitor and both references' L2 errors."""
     from mpi4py import MPI
 
-    from solver import reporting, scene
-    from solver.plan import References
-    from solver.soil import Soil
+    from solver.consolidation import reporting
+    from solver.consolidation.plan import References
+    from solver.model import scene
+    from solver.model.soil import Soil
 
     mpi = comm.tompi4py()
     refs = References.of(Soil.from_options(p), scene.Loading.from_options(p),
@@ -197,10 +198,10 @@ def worker(cfg: dict) -> None:
     petsc4py.init([sys.argv[0]] + cfg.get("petsc_args", []))
     from petsc4py import PETSc
 
-    from solver import scene
-    from solver.scheme import Scheme
-    from solver.soil import Soil
-    from solver.twophase import compile_kernels
+    from solver.consolidation.explicit.scheme import Scheme
+    from solver.consolidation.explicit.twophase import compile_kernels
+    from solver.model import scene
+    from solver.model.soil import Soil
 
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
@@ -675,7 +676,7 @@ def measure_paper(args, say) -> dict:
 
 def write_results(result, lines, prefix: str) -> None:
     """PREFIX.json (the results), .txt (the report) and .png (the chart)."""
-    from solver import output
+    from solver.io import output
 
     output.write_json(prefix + ".json", result)
     output.write_text(prefix + ".txt", "\n".join(lines))
@@ -712,7 +713,7 @@ def main(argv=None) -> int:
 
 def _plot(result, path):
     """ns per point per step against the point count, one line per cell and rank count."""
-    from solver import output
+    from solver.io import output
 
     plt = output.pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))

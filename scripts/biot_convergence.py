@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Convergence of the finite-element Biot reference (solver/biot.py) on the block drained
-through its sides, the scene of tests/test_biot.py: W = H = 1.2 m, E 8e6 Pa, nu 0.2, n 0.4,
-k 2e-4 m/s, K_l 1.2e8 Pa, rho_l 1000 kg/m3, q 15 kPa on the whole top, drained left and
-right, rollers on the sides, fixed base; p on a 9 x 9 lattice of points and the mean
+"""Convergence of the finite-element Biot reference (solver/references/biot.py) on the block
+drained through its sides, the scene of tests/test_biot.py: W = H = 1.2 m, E 8e6 Pa, nu 0.2,
+n 0.4, k 2e-4 m/s, K_l 1.2e8 Pa, rho_l 1000 kg/m3, q 15 kPa on the whole top, drained left
+and right, rollers on the sides, fixed base; p on a 9 x 9 lattice of points and the mean
 settlement at T = c_v t / H^2 = 0.05, 0.2, 0.5 (classic c_v = k E_c / gamma_w).
 
     scripts/biot-convergence [--element q9] [--cells 8,16,32,64] [--steps 8,16,32,64]
@@ -21,18 +21,18 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
 import numpy as np  # noqa: E402
 from petsc4py import PETSc  # noqa: E402
 
-from solver import analytic, biot  # noqa: E402
-from solver.soil import G_REF, constrained_modulus  # noqa: E402
+from solver.model.soil import G_REF, constrained_modulus  # noqa: E402
+from solver.references import analytic, biot  # noqa: E402
 
 TV = np.array([0.05, 0.2, 0.5])
 Q = 15e3

@@ -30,16 +30,18 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
 import numpy as np  # noqa: E402
 
-from solver import output, study, workprecision  # noqa: E402
+from solver.consolidation import workprecision  # noqa: E402
+from solver.io import output  # noqa: E402
+from solver.studies import study  # noqa: E402
 
 DEFAULT_OUT = os.path.join(study.STUDIES, "convergence")
 DEFAULT_SCENE = "cases/consolidation-m1-q4.opts"

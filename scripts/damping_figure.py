@@ -22,16 +22,16 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
 import numpy as np  # noqa: E402
 
-from solver import study  # noqa: E402
+from solver.studies import study  # noqa: E402
 
 VARIANTS = [
     ("no damping", ["-mpm_damping", "0"]),
@@ -68,7 +68,8 @@ def main():
                   f"(Terzaghi {s['monitor']['terzaghi'][0]:.3f}, compressible water "
                   f"{s['monitor']['consistent'][0]:.3f})")
 
-    from solver import analytic, output
+    from solver.io import output
+    from solver.references import analytic
 
     plt = output.pyplot()
     fig, ax = plt.subplots(figsize=(8, 4.5))

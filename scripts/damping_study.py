@@ -24,15 +24,17 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
-from solver import inertia, output, study  # noqa: E402
-from solver.soil import Soil  # noqa: E402
+from solver.consolidation.explicit import inertia  # noqa: E402
+from solver.io import output  # noqa: E402
+from solver.model.soil import Soil  # noqa: E402
+from solver.studies import study  # noqa: E402
 
 # (E in Pa, k in m/s): Pi = 6, 25, 59, 183, 435 on the paper's column.
 SCENES = [(1e8, 2.5e-3), (1e8, 6e-4), (1e8, 2.5e-4), (1e7, 6e-4), (1e7, 2.5e-4)]

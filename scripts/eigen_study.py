@@ -3,8 +3,8 @@
 
 Refines the paper's soil column (0.1 m x 1 m, E = 10 MPa, nu = 0, 2190 kg/m3; Q4 with 2 x 2
 points per cell, Q8/Q9 with 3 x 3) and, for each model, times
-- Jacobi: ``solver.jacobi.solve``, all n eigenvalues and the 5 lowest modes;
-- SLEPc: ``solver.frequency.slepc_solve``, the 5 lowest eigenpairs (shift-and-invert, MUMPS);
+- Jacobi: ``solver.eigen.jacobi.solve``, all n eigenvalues and the 5 lowest modes;
+- SLEPc: ``solver.eigen.frequency.slepc_solve``, the 5 lowest eigenpairs (shift-and-invert, MUMPS);
 - LAPACK: numpy on rank 0, L = cholesky(M), C = L^-1 K L^-T, eigh(C), X = L^-T Y: all n
   eigenpairs (the dense reference the Jacobi goal is measured against);
 and the relative error of modes 1 to 5 against the analytic 1D rod with the constrained
@@ -33,10 +33,10 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
@@ -54,7 +54,7 @@ SOLVERS = ("jacobi", "slepc", "lapack")
 
 def scene(element, cells):
     """The -mpm_ options of a refined paper column, read like the command line does."""
-    from solver import options
+    from solver.io import options
 
     return options.from_mapping(
         {"element": element, "cells": cells, "size": (0.1, 1.0),
@@ -115,10 +115,11 @@ def timed(comm, fn, repeats):
 
 def measure(comm, element, cells, repeats, with_jacobi=True):
     """One model: a dict per solver with seconds, frequencies (Hz) and errors vs the rod."""
-    from solver import analytic, jacobi
-    from solver.frequency import frequencies, slepc_solve
-    from solver.scene import Body, build, destroy
-    from solver.soil import Soil
+    from solver.eigen import jacobi
+    from solver.eigen.frequency import frequencies, slepc_solve
+    from solver.model.scene import Body, build, destroy
+    from solver.model.soil import Soil
+    from solver.references import analytic
 
     p = scene(element, cells)
     soil = Soil.from_options(p)
@@ -192,7 +193,7 @@ def study(comm, repeats, out, formats=("png",)):
                       f"{j['error'][0]:.2e}, mode 5 {j['error'][4]:.2e}", flush=True)
     if not rank0:
         return
-    from solver import output
+    from solver.io import output
 
     os.makedirs(out, exist_ok=True)
     path = os.path.join(out, "eigen-study.csv")
@@ -216,7 +217,7 @@ COLOR = {"jacobi": "tab:blue", "slepc": "tab:orange", "lapack": "tab:green"}
 
 
 def work_precision_figure(records, path, ranks, formats=("png",)):
-    from solver import output
+    from solver.io import output
 
     plt = output.pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=False)
@@ -249,7 +250,7 @@ def slope(x, y):
 
 
 def scaling_figure(records, path, ranks, formats=("png",)):
-    from solver import output
+    from solver.io import output
 
     plt = output.pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
@@ -286,7 +287,7 @@ def scaling_figure(records, path, ranks, formats=("png",)):
 
 
 def arguments(argv=None):
-    from solver import output
+    from solver.io import output
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--benchmark", action="store_true",

@@ -2,7 +2,7 @@
 """Convergence of layered consolidation under refinement, Q4, Q8 and Q9 cells: a 1 m column
 of two 0.5 m layers from the surface down, stiff and permeable over soft and tight (E 40
 and 10 MPa, k 2.5e-3 and 2.5e-4 m/s: contrasts 4 and 10), against the layered column's
-series (solver.layered) with compressible water.
+series (solver.references.layered) with compressible water.
 
     scripts/layered-convergence [--elements q4,q8,q9] [--cells 1x10,1x20]
 
@@ -40,10 +40,10 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
@@ -94,7 +94,7 @@ def run(element, cells, folder):
 def column(summary):
     """The layered column of the run's summary (layers from the surface down), built from
     its inputs alone: compressible water, the load Q, drained where the reference says."""
-    from solver.layered import LayeredColumn
+    from solver.references.layered import LayeredColumn
 
     layers = summary["layers"]
     E = np.array([s["E"] for s in layers])

@@ -25,14 +25,15 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
-from solver import output, study  # noqa: E402
+from solver.io import output  # noqa: E402
+from solver.studies import study  # noqa: E402
 
 PERMEABILITY = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9)
 CONFIGS = {"explicit drag": ["-mpm_drag", "explicit", "-mpm_mass_scaling", "none"],
@@ -56,8 +57,8 @@ def base(k, config):
     the earliest report time, which the short runs change) and given as a number."""
     opts = list(CONFIGS[config])
     if "auto" in opts:
-        from solver import inertia
-        from solver.soil import Soil
+        from solver.consolidation.explicit import inertia
+        from solver.model.soil import Soil
 
         p = study.read_scene(os.path.join(ROOT, CASE), ["-mpm_k", f"{k:g}", "-mpm_Tv_end",
                                                        str(TV_END), "-mpm_Tv_report", REPORT])

@@ -9,10 +9,11 @@ the numbers of docs/method.md ("Quadratic cells drained through a side").
 Two scenes, each point's largest |p/q - reference| (% of q) at T_v = 0.05 / 0.2 / 0.5:
 - the 1.2 m block drained left and right (tests/test_drainage.py; E 8e6 Pa, nu 0.2, n 0.4,
   k 2e-4 m/s, q 15 kPa, mass scaling auto) on N x N cells, against the finite-element model
-  (solver/biot.py) on FE x FE cells;
+  (solver/references/biot.py) on FE x FE cells;
 - the paper's column drained at the top and the base on 1 x N cells, the default scheme,
-  against Terzaghi's series with compressible water (solver/analytic.py), and the largest
-  spread of that error inside one cell (the ramp that point pressures repeat in every cell).
+  against Terzaghi's series with compressible water (solver/references/analytic.py), and the
+  largest spread of that error inside one cell (the ramp that point pressures repeat in
+  every cell).
 Point pressures on the block are left out (they never drain a mode in every cell). About
 ten minutes on one core for the defaults; the runs go to a temporary folder.
 """
@@ -28,10 +29,10 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
@@ -65,7 +66,7 @@ def block_errors(summary, rows, fe_cells):
     import numpy as np
     from petsc4py import PETSc
 
-    from solver import biot
+    from solver.references import biot
 
     o = summary["provenance"]["options"]["mpm"]
     body = biot.Body(size=tuple(o["size"]), E=o["E"], nu=o["nu"], k=o["k"],
@@ -86,8 +87,8 @@ def column_errors(summary, rows):
     inside one cell at T_v = 0.05."""
     import numpy as np
 
-    from solver import analytic
-    from solver.soil import constrained_modulus
+    from solver.model.soil import constrained_modulus
+    from solver.references import analytic
 
     o = summary["provenance"]["options"]["mpm"]
     E_c, gw = constrained_modulus(o["E"], o["nu"]), o["rho_l"] * 9.81

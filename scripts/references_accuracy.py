@@ -24,13 +24,13 @@ if __name__ == "__main__":
     # Run as a command: this repository's solver and tests first on the path, under a
     # Python with PETSc. Imported, the module does nothing: the importer puts them there.
     sys.path[:0] = [ROOT, os.path.join(ROOT, "tests")]
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
 import numpy as np  # noqa: E402
 
-from solver import analytic, layered  # noqa: E402
+from solver.references import analytic, layered  # noqa: E402
 from test_references import (DRAINAGES, GAMMA_W, Q, fe_diffusion, richardson,  # noqa: E402
                              rod_reference, two_layers)
 

@@ -22,17 +22,19 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
 import numpy as np  # noqa: E402
 
-from solver import analytic, figures, output, study  # noqa: E402
-from solver.eigen import PAPER_ABAQUS_CPE8, PAPER_TABLE3  # noqa: E402
+from solver.eigen.driver import PAPER_ABAQUS_CPE8, PAPER_TABLE3  # noqa: E402
+from solver.io import figures, output  # noqa: E402
+from solver.references import analytic  # noqa: E402
+from solver.studies import study  # noqa: E402
 
 PUBLISHED = os.path.join(ROOT, "docs", "results")
 DEFAULT_OUT = os.path.join(ROOT, "output", "studies", "paper")

@@ -22,16 +22,16 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
 import numpy as np  # noqa: E402
 
-from solver import output  # noqa: E402
+from solver.io import output  # noqa: E402
 
 FIELDS = {"displacement": 3, "velocity_solid": 3, "velocity_liquid": 3, "pore_pressure": 1,
           "effective_stress_xx": 1, "effective_stress_yy": 1, "effective_stress_xy": 1}

@@ -25,14 +25,15 @@ from concurrent.futures import ThreadPoolExecutor
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
-from solver import output, study  # noqa: E402
+from solver.io import output  # noqa: E402
+from solver.studies import study  # noqa: E402
 
 SCENES = {"m1-q4": [], "m1-q8": [], "m1-q9": [], "m2-q4": [], "m3-q4": [],
           "m1-q4-tight": ["-mpm_k", "2.5e-5"],

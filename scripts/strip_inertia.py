@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The inertia of a strip footing's consolidation against the finite-element reference
-(solver/biot.py): what ``-mpm_mass_scaling auto`` picks, what the run prints about the
+(solver/references/biot.py): what ``-mpm_mass_scaling auto`` picks, what the run prints about the
 inertia error, and what is measured.
 
     scripts/strip-inertia [--scene strip] [--cells 16x8] [--element q4] [--ppc 2]
@@ -33,7 +33,7 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 
@@ -57,7 +57,7 @@ def run(scene, folder, extra=(), ranks=1) -> dict:
 def fe_body(o):
     """The biot.Body of a run's options ``o`` (the summary's provenance): a step load on
     the loaded part of the top, layers as the run's."""
-    from solver import biot
+    from solver.references import biot
 
     def value(name):
         v = o[name]
@@ -87,7 +87,7 @@ def compare(s, folder, reports) -> dict:
     import numpy as np
     from petsc4py import PETSc
 
-    from solver import biot
+    from solver.references import biot
 
     o = s["provenance"]["options"]["mpm"]
     rows, prof = series(folder)

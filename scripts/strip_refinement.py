@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """The strip footing's ends of consolidation under refinement (cases/consolidation-strip.opts):
-for each grid, the static undrained and final settlements under the load (solver/static.py,
-KSP), the run's settlement at T_v = 2 against the final one, and that of the same strip on
-a clay (k = 1e-9 m/s, no mass scaling: the wave damped out long before drainage begins) at
-T_v = 1e-6 against the undrained one.
+for each grid, the static undrained and final settlements under the load
+(solver/references/static.py, KSP), the run's settlement at T_v = 2 against the final one,
+and that of the same strip on a clay (k = 1e-9 m/s, no mass scaling: the wave damped out
+long before drainage begins) at T_v = 1e-6 against the undrained one.
 
     scripts/strip-refinement [--cells 8x4,16x8,32x16] [--ranks 1]
 
@@ -24,10 +24,10 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":
     # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.launch needs only the standard library). Imported, the module does
+    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
     # nothing: the importer puts the repository on the path.
     sys.path.insert(0, ROOT)
-    from solver.launch import use_petsc_python
+    from solver.io.launch import use_petsc_python
 
     use_petsc_python()
 

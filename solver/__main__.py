@@ -89,8 +89,8 @@ def _scan_options_files(argv) -> tuple:
         if not os.path.isfile(path):
             return origins, _fail(f"{flag} {path}: no such file", 2, _rank())
         if flag == "-options_file":
-            from .errors import InputError
-            from .scenefile import scan_file
+            from .common.errors import InputError
+            from .io.scenefile import scan_file
 
             try:
                 origins.update(scan_file(path))
@@ -109,16 +109,16 @@ def main(argv=None, comm=None) -> int:
     to the host process, which prints them when it finalises PETSc.
 
     SIGTERM and SIGINT stop it at any point with one line and exit code 4
-    (:mod:`solver.signals`), from the start, before PETSc runs, on.
+    (:mod:`solver.common.signals`), from the start, before PETSc runs, on.
     """
     if "petsc4py.PETSc" not in sys.modules:
-        from .launch import missing
+        from .io.launch import missing
 
         problem = missing()       # a Python without PETSc (a pyenv's): one line, not a trace
         if problem:
             return _fail(problem, 2, _rank())
-    from . import clock, signals
-    from .errors import Interrupted
+    from .common import clock, signals
+    from .common.errors import Interrupted
 
     # A process of its own (PETSc not yet started) counts its wall time from its own start.
     with signals.watched(), clock.command(fresh="petsc4py.PETSc" not in sys.modules):
@@ -153,8 +153,8 @@ def _main(argv, comm) -> int:
     from petsc4py import PETSc
     from slepc4py import SLEPc  # noqa: F401  (initialised here, before the signals are set)
 
-    from . import options
-    from .errors import InputError
+    from .common.errors import InputError
+    from .io import options
 
     comm = PETSc.COMM_WORLD if comm is None else comm
     try:
@@ -168,8 +168,9 @@ def _run(argv, origins, scene_analysis, comm) -> int:
     """The analysis the options in PETSc's database ask for; the exit code (see above)."""
     from petsc4py import PETSc
 
-    from . import checkpoint, options, signals
-    from .errors import InputError, InternalError, Interrupted, NumericalError, describe
+    from .common import signals
+    from .common.errors import InputError, InternalError, Interrupted, NumericalError, describe
+    from .io import checkpoint, options
 
     _survive_closed_stdout()
     if set(HELP) & set(argv):
@@ -188,11 +189,11 @@ def _run(argv, origins, scene_analysis, comm) -> int:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
         check_output(params.output, params.summary, comm)
         if params.analysis == "eigen":
-            from . import eigen
+            from .eigen import driver as eigen
 
             eigen.run(params, comm)
         else:
-            from . import consolidation
+            from .consolidation import driver as consolidation
 
             code = consolidation.run(params, comm)
             if code:
@@ -239,8 +240,8 @@ def _help(options, origins, comm) -> int:
     reason below the table."""
     from petsc4py import PETSc
 
-    from . import checkpoint
-    from .errors import InputError
+    from .common.errors import InputError
+    from .io import checkpoint
 
     problem = ""
     try:
@@ -296,7 +297,7 @@ def check_output(folder, summary, comm) -> None:
                                       summary)
     problem = comm.tompi4py().bcast(problem, root=0)
     if problem:
-        from .errors import InputError
+        from .common.errors import InputError
 
         raise InputError(problem)
 

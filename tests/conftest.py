@@ -8,7 +8,7 @@
   (``mpi_pytest``); temporary folders are shared by its ranks.
 * ``paper_run`` (session fixture) runs each paper scene once per rank count and caches it.
 * ``ref_shapes`` (fixture): Q4/Q8/Q9 shape functions written independently of
-  ``solver.shapes`` (generic 1D Lagrange products and the serendipity formulas), used as the
+  ``solver.model.shapes`` (generic 1D Lagrange products and the serendipity formulas), used as the
   reference of the shape-function and dense-assembly tests.
 * ``readme_section``, ``readme_table``, ``readme_outputs``, ``check_readme_outputs``: the
   README's sections and tables, for the tests that hold them to the code.
@@ -269,7 +269,7 @@ def scene_options(**given):
     """The solver's options (``options.from_mapping``) of a scene given as keywords
     (``cells="1,10"``), a consolidation scene unless ``analysis`` says otherwise, read as
     from a command line; PETSc's database is not touched."""
-    from solver import options
+    from solver.io import options
 
     return options.from_mapping({"analysis": "consolidation", **given})
 
@@ -399,14 +399,14 @@ def ref_shapes():
 
 
 def typed(p):
-    """The typed values the solver's set-up makes of options ``p`` (solver.options.Params):
+    """The typed values the solver's set-up makes of options ``p`` (solver.io.options.Params):
     soil (a Soil, or a Ground of several layers), body, loading and scheme, as a namespace
     (for tests that build models by hand)."""
     from types import SimpleNamespace
 
-    from solver.scene import Body, Loading
-    from solver.scheme import Scheme
-    from solver.soil import Ground
+    from solver.consolidation.explicit.scheme import Scheme
+    from solver.model.scene import Body, Loading
+    from solver.model.soil import Ground
 
     soil = Ground.from_options(p).as_material()
     return SimpleNamespace(soil=soil, body=Body.from_options(p),

@@ -1,4 +1,4 @@
-"""Terzaghi's references (solver.analytic) against references written here: the Fourier
+"""Terzaghi's references (solver.references.analytic) against references written here: the Fourier
 series summed to thousands of terms, and the short-time image solution built on the
 standard library's math.erfc. Also: scalars and arrays in and out, and memory O(points)."""
 
@@ -10,7 +10,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from solver import analytic
+from solver.references import analytic
 
 # The promise: 1e-10 absolute in units of p0 for every Tv > 0.
 ATOL = 1e-10
@@ -87,10 +87,10 @@ def test_compressible_water_variant():
 
 
 def test_the_soils_coefficients_are_the_closed_forms():
-    """solver.soil writes its coefficients out (the model does not build on the references):
+    """solver.model.soil writes its coefficients out (the model does not build on the references):
     c_v, c2 and the undrained share of a load agree with the closed forms, for a soil whose
     water's compressibility shows (n E_c / K_l = 0.054)."""
-    from solver.soil import G_REF, Soil, constrained_modulus
+    from solver.model.soil import G_REF, Soil, constrained_modulus
 
     soil = Soil(E=20e6, nu=0.3, rho_s=2650.0, porosity=0.4, k=1e-5, rho_l=1000.0, K_l=200e6)
     E_c, gw = constrained_modulus(20e6, 0.3), 1000.0 * G_REF

@@ -158,7 +158,7 @@ def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(inject, cl
                                                                        ranks):
     out = tmp_path / "out"
     args = ["-options_file", M1, *SHORT, "-mpm_output", out]
-    code, stdout, stderr, _ = inject("solver.reporting.write_files", args, ranks)
+    code, stdout, stderr, _ = inject("solver.consolidation.reporting.write_files", args, ranks)
     assert code == 5, stderr
     lines = _error_lines(stderr)
     assert len(lines) == 1 and "internal error: MemoryError: injected" in lines[0]
@@ -180,7 +180,7 @@ def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(inj
     """A failure between the step and its reports leaves no state whose records agree:
     the summary says so, no checkpoint is written."""
     out = tmp_path / "out"
-    code, _, stderr, _ = inject("solver.reporting.report",
+    code, _, stderr, _ = inject("solver.consolidation.reporting.report",
                                 ["-options_file", M1, *SHORT, "-mpm_output", out])
     assert code == 5 and stderr.count("\n") == 1, stderr
     assert "internal error: MemoryError: injected" in stderr
@@ -191,7 +191,7 @@ def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(inj
 
 def test_failure_on_some_ranks_inside_the_stepping_aborts_rather_than_hangs(tmp_path):
     out = tmp_path / "out"
-    code, _, stderr = _inject(tmp_path, "solver.reporting.report",
+    code, _, stderr = _inject(tmp_path, "solver.consolidation.reporting.report",
                               ["-options_file", M1, *SHORT, "-mpm_output", out], ranks=2,
                               timeout=120)
     assert code not in (0, 124), stderr
@@ -201,9 +201,9 @@ def test_failure_on_some_ranks_inside_the_stepping_aborts_rather_than_hangs(tmp_
 def test_internal_error_traceback_only_with_debug(inject, tmp_path):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_figures", "0", "-mpm_output", out]
-    code, _, stderr, _ = inject("solver.eigen._print_table", args + ["-mpm_debug"])
+    code, _, stderr, _ = inject("solver.eigen.driver._print_table", args + ["-mpm_debug"])
     assert code == 5 and "Traceback" in stderr and "MemoryError: injected" in stderr
-    code, _, stderr, _ = inject("solver.eigen._print_table", args)
+    code, _, stderr, _ = inject("solver.eigen.driver._print_table", args)
     assert code == 5 and stderr.count("\n") == 1 and "Traceback" not in stderr
     s = _summary(out)
     assert s["completed"] is False and s["error"]["kind"] == "internal"
@@ -215,7 +215,7 @@ def test_internal_error_traceback_only_with_debug(inject, tmp_path):
 def test_eigen_failure_in_the_writing_is_agreed_by_every_rank(inject, tmp_path, ranks):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_output", out]
-    code, _, stderr, _ = inject("solver.eigen.mode_figure", args, ranks)
+    code, _, stderr, _ = inject("solver.eigen.driver.mode_figure", args, ranks)
     assert code == 5 and "MPI_ABORT" not in stderr, stderr
     assert len(_error_lines(stderr)) == 1
     assert _summary(out)["error"]["exit_code"] == 5
@@ -297,8 +297,8 @@ def test_scene_of_another_analysis_writes_into_its_own_folder(tmp_path):
 def test_options_read_drops_scene_options_of_the_other_analysis():
     from petsc4py import PETSc
 
-    from solver import options
-    from solver.errors import InputError
+    from solver.common.errors import InputError
+    from solver.io import options
 
     db = PETSc.Options()
     for key in list(db.getAll()):
@@ -353,7 +353,7 @@ def test_study_scripts_write_under_output_and_document_every_option(name):
 def test_study_destination():
     import argparse
 
-    from solver import study
+    from solver.studies import study
 
     ap = argparse.ArgumentParser()
     study.add_destination(ap, "x", "x.json")

@@ -1,4 +1,4 @@
-"""The finite-element Biot reference (solver/biot.py) against independent references:
+"""The finite-element Biot reference (solver/references/biot.py) against independent references:
 Terzaghi's series with compressible water (one-way and two-way drainage), a layered column
 by a fine finite-volume solution written here, and its own convergence on a block drained
 through its sides, which has no closed form."""
@@ -11,9 +11,9 @@ from petsc4py import PETSc
 from scipy.linalg import eigh
 
 from conftest import scene_options
-from solver import analytic, biot
-from solver.soil import constrained_modulus
-from solver.errors import InputError
+from solver.common.errors import InputError
+from solver.model.soil import constrained_modulus
+from solver.references import analytic, biot
 
 SELF = PETSc.COMM_SELF
 GAMMA_W = 1000.0 * 9.81
@@ -177,7 +177,8 @@ def test_from_options_matches_a_body():
 def test_the_reference_knows_the_scenes_sides_and_supports():
     """biot states its sides and support choices itself (the references sit below the
     options): they must be the scene's and the command line's."""
-    from solver import options, scene
+    from solver.io import options
+    from solver.model import scene
 
     assert biot.SIDES == scene.SIDES
     assert biot.BC_CHOICES == options.BC_CHOICES

@@ -22,7 +22,7 @@ MONITOR = {"m1-q4": 0.475, "m2-q4": 0.4875, "m3-q4": 0.49375, "m1-q9": 0.48333}
 
 
 def terzaghi(depth, Tv, H=1.0, p0=1.0, terms=2000):
-    """Terzaghi's series, independently of solver.analytic."""
+    """Terzaghi's series, independently of solver.references.analytic."""
     m = np.arange(terms)
     M = np.pi * (2 * m + 1) / 2
     return p0 * float(np.sum(2 / M * np.sin(M * depth / H) * np.exp(-M * M * Tv)))
@@ -295,7 +295,7 @@ def test_refined_grids_take_the_patch_and_keep_the_limit():
 
     from conftest import typed
 
-    from solver import timestep
+    from solver.consolidation.explicit import timestep
 
     drag = dict(drag="explicit", damping=0.5, fast_damping=0, mass_scaling="none")
     for element, cells, ppc in PAPER_SCENES:
@@ -319,7 +319,7 @@ def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():
 
     from conftest import typed
 
-    from solver import frequency
+    from solver.eigen import frequency
 
     t = typed(scene_options(cells="3,30"))
     jacobi_f1 = frequency.fundamental_frequency(PETSc.COMM_SELF, t.body, t.soil)

@@ -3,8 +3,8 @@ zero across them, (v_l - v_s) . n = 0, not its absolute velocity. A settling top
 that the load pushes would otherwise let water out.
 
 References: Terzaghi's series (compressible water) mirrored for a column drained at its
-base; a quasi-static u-p finite-element model of the same body (``solver.biot``, implicit
-in time, written apart from the MPM) for the blocks that drain through their sides.
+base; a quasi-static u-p finite-element model of the same body (``solver.references.biot``,
+implicit in time, written apart from the MPM) for the blocks that drain through their sides.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from conftest import check_ok
 
-from solver import analytic
-from solver.soil import constrained_modulus
+from solver.model.soil import constrained_modulus
+from solver.references import analytic
 
 REPORTS = (0.05, 0.2, 0.5)
 REPORT_ARGS = ["-mpm_Tv_end", "0.5", "-mpm_Tv_report", ",".join(map(str, REPORTS)),
@@ -126,7 +126,7 @@ def _fe_reference(o, t, xy):
     32 on this block) of the run with options ``o`` at time t (s) and points xy (m)."""
     from petsc4py import PETSc
 
-    from solver import biot
+    from solver.references import biot
 
     body = biot.Body(size=tuple(o["size"]), E=o["E"], nu=o["nu"], k=o["k"],
                      porosity=o["porosity"], K_l=o["K_l"], rho_l=o["rho_l"], load=o["load"],

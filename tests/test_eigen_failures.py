@@ -117,7 +117,7 @@ def test_loose_tolerance_reports_accuracy(cli):
 def test_residual_is_the_dense_residual():
     """JacobiResult.residual equals ||K phi - lambda M phi|| / (||K phi|| + |lambda| ||M phi||)
     computed densely from the returned modes, for a loosely converged random pencil."""
-    from solver import jacobi
+    from solver.eigen import jacobi
 
     Kd, Md = random_pencil(30, 41)
     res = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 4, tol=0.3)
@@ -154,7 +154,7 @@ def test_two_sweeps_far_from_converged(cli):
 @pytest.mark.parametrize("kind", ["singular", "indefinite", "diagonal"])
 def test_check_mass_kinds_and_rank(kind):
     """jacobi.check_mass against numpy: the kind of failure and the numerical rank."""
-    from solver import jacobi
+    from solver.eigen import jacobi
 
     rng = np.random.default_rng(5)
     n = 12
@@ -180,8 +180,8 @@ def test_check_mass_kinds_and_rank(kind):
 
 
 def test_non_finite_matrices():
-    from solver import jacobi
-    from solver.errors import NumericalError
+    from solver.common.errors import NumericalError
+    from solver.eigen import jacobi
 
     Kd, Md = random_pencil(8, 9)
     Kbad = Kd.copy()
@@ -228,7 +228,7 @@ def test_free_body_names_its_rigid_modes(cli):
 def test_tall_column_prints_four_digits(cli):
     """The paper's column scaled 500 times (50 m x 500 m): every frequency 500 times
     smaller, printed with four significant digits (0.03378 Hz, not 0.03), the rod's too."""
-    from solver.analytic import rod_frequencies
+    from solver.references.analytic import rod_frequencies
 
     res = cli(["-mpm_size", "50,500", "-mpm_figures", "0"], options_file="eigen-q9")
     s = check_ok(res)
@@ -248,7 +248,7 @@ def test_tall_column_prints_four_digits(cli):
 def test_mode_figure_has_a_colour_bar_and_the_rod_only_where_it_applies(cli, monkeypatch):
     """Issue 22, item 11: modes.png colours the grid by |u| over the mode's largest, with a
     colour bar from 0 to 1; the rod's dashed shape is drawn on a fixed-base column only."""
-    from solver import eigen
+    from solver.eigen import driver as eigen
 
     figs = []
     real = eigen.mode_figure

@@ -1,5 +1,5 @@
 """A scene without a closed form set against its own finite-element solution (issue 27, items
-3 and 5): the strip footing of cases/ solved again by solver/biot.py, its report (the
+3 and 5): the strip footing of cases/ solved again by solver/references/biot.py, its report (the
 settlement at the axis and the mean under the load, the monitor point's excess pore
 pressure, the column under the axis, the trough) and its files.
 
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from conftest import check_ok, check_readme_outputs, readme_section, run_cli
 
-from solver import fe_reference, plan
-from solver.scene import Body, Loading
-from solver.soil import Ground, Soil
+from solver.consolidation import fe_reference, plan
+from solver.model.scene import Body, Loading
+from solver.model.soil import Ground, Soil
 
 SHORT = ["-mpm_cells", "8,4", "-mpm_fe_cells", "16,8", "-mpm_Tv_end", "0.05",
          "-mpm_Tv_report", "0.01,0.05", "-mpm_progress", "0"]
@@ -41,7 +41,7 @@ def _biot(o, times, points, surface=None, cells=(16, 8)):
     """biot.solve of the body of the run options ``o`` (the summary's), built here."""
     from petsc4py import PETSc
 
-    from solver import biot
+    from solver.references import biot
 
     layered = len(o["layers"]) > 1
     body = biot.Body(size=tuple(o["size"]), E=o["E"], nu=o["nu"], k=o["k"],
@@ -329,7 +329,7 @@ def test_mean_under_the_load_is_exact_for_the_cells_polynomials():
 def test_fe_times_are_the_runs():
     """The FE is asked the run's report and isochrone steps' times exactly, and halvings
     of time before them down to the first sample."""
-    from solver.plan import Schedule
+    from solver.consolidation.plan import Schedule
 
     sched = Schedule(dt=1e-3, nsteps=2000, report_steps={100: 0.01, 2000: 0.2},
                      iso_steps={100: 0.01, 500: 0.05, 2000: 0.2}, Tv_end=0.2,

@@ -1,5 +1,5 @@
 """Figures: every format on request (output.save_figure), the consolidation figures'
-references, labels, units and colour map (solver.figures)."""
+references, labels, units and colour map (solver.io.figures)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from test_analytic import reference
 
-from solver import figures, output
+from solver.io import figures, output
 
 
 def _figure():
@@ -101,7 +101,7 @@ def test_settlement_time_in_the_scenes_own_unit(t_end, unit, seconds):
     (test_outputs.terzaghi_mean)."""
     from test_outputs import terzaghi_mean
 
-    from solver.analytic import degree_of_consolidation
+    from solver.references.analytic import degree_of_consolidation
 
     H, cv, ratio, s0, s_inf = 1.0, 1.0 / t_end, 0.97, 1e-5, 1e-3   # T_v = 1 at t_end
     t = np.geomspace(t_end / 1e4, t_end, 50)
@@ -124,7 +124,7 @@ def test_settlement_time_in_the_scenes_own_unit(t_end, unit, seconds):
 def test_pressure_field_of_a_wide_body_stacks_its_panels():
     """A body wider than high (a strip footing's block) gets its snapshots one above the
     other, each panel as wide as the figure; a column keeps them side by side."""
-    from solver import figures, output
+    from solver.io import figures, output
 
     plt = output.pyplot()
     x, y = np.meshgrid(np.linspace(0.05, 1.95, 20), np.linspace(0.05, 0.95, 10))

@@ -29,8 +29,8 @@ def test_every_option_with_junk_in_process():
     """Each -mpm_ option with each junk value: parsed, or an InputError naming it."""
     from petsc4py import PETSc
 
-    from solver import options
-    from solver.errors import InputError
+    from solver.common.errors import InputError
+    from solver.io import options
 
     for opt in options.SPEC:
         analysis = "consolidation" if "eigen" not in opt.used_by else "eigen"
@@ -57,7 +57,7 @@ CONS_ARGS = ["-mpm_figures", "0", "-mpm_progress", "0", "-mpm_Tv_end", "0.002",
 
 @pytest.mark.parametrize("seed", range(12))
 def test_random_option_values_on_the_command_line(cli, tmp_path, seed):
-    from solver import options
+    from solver.io import options
 
     rng = random.Random(seed)
     scene, base = rng.choice([("eigen-q4", EIGEN_ARGS), ("consolidation-m1-q4", CONS_ARGS)])
@@ -172,11 +172,11 @@ def test_non_finite_values_are_caught():
     import numpy as np
     from petsc4py import PETSc
 
-    from solver import options
-    from solver.errors import NumericalError
-    from solver.grid import Grid
-    from solver.points import place
-    from solver.twophase import TwoPhase, point_fields
+    from solver.common.errors import NumericalError
+    from solver.consolidation.explicit.twophase import TwoPhase, point_fields
+    from solver.io import options
+    from solver.model.grid import Grid
+    from solver.model.points import place
 
     db = PETSc.Options()
     for key in list(db.getAll()):

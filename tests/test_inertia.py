@@ -33,9 +33,9 @@ def _consistent_errors(s):
 def _model(**opts):
     from conftest import typed
 
-    from solver import twophase
-    from solver.grid import Grid
-    from solver.points import place
+    from solver.consolidation.explicit import twophase
+    from solver.model.grid import Grid
+    from solver.model.points import place
     from test_step_reference import _params
 
     p = _params(**opts)
@@ -331,7 +331,7 @@ def _fe(s, times, xy):
     """The FE reference (biot.py, Q9/Q4 64 x 32 cells: within 0.05 % of 128 x 64 in the
     settlement at T_v = 0.01) of the strip run of summary ``s``:
     (mean settlement under the load (m), p (Pa) at xy) at ``times`` (s)."""
-    from solver import biot
+    from solver.references import biot
 
     o = s["provenance"]["options"]["mpm"]
     body = biot.Body(size=tuple(o["size"]), E=o["E"], nu=o["nu"], k=o["k"],
@@ -347,9 +347,9 @@ def test_slowest_wave_of_columns_and_bodies():
     drainage through a side or walls that hold the sides make it a body, whose slowest wave
     is its lowest drained mode: on the 2 m x 1 m block with rollers on the sides and a fixed
     base, the drained column's compression mode c / (4H) (16.89 Hz, Q4 16 x 8: 16.93 Hz)."""
-    from solver import inertia
-    from solver.scene import Body, Loading
-    from solver.soil import Soil
+    from solver.consolidation.explicit import inertia
+    from solver.model.scene import Body, Loading
+    from solver.model.soil import Soil
 
     soil = Soil()
     column = Body(cells=(16, 8), size=(2.0, 1.0))

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from conftest import check_ok
 
-from solver import layered, static
-from solver.plan import References
-from solver.scene import Body, Loading
-from solver.soil import G_REF, Ground, Soil, constrained_modulus
+from solver.consolidation.plan import References
+from solver.model.scene import Body, Loading
+from solver.model.soil import G_REF, Ground, Soil, constrained_modulus
+from solver.references import layered, static
 
 Q = 10e3
 # Two layers, contrast 4 in E and 10 in k, compressible water (the scene).
@@ -175,7 +175,7 @@ def test_layer_interfaces_are_drawn_at_the_layer_bottoms():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from solver import figures
+    from solver.io import figures
 
     fig, ax = plt.subplots()
     figures.layer_interfaces(ax, Ground((0.25, 0.5, 0.25), (Soil(),) * 3), label=True)

@@ -6,8 +6,8 @@ The bounds hold with margin: on 1 x 10 Q4 cells the largest error is 2.9 % of q 
 T_v = 0.05 (the steep front just below the interface), 0.74 and 0.57 % at T_v = 0.2 and 0.5,
 and the L2 error 0.88 % (docs/studies.md, "Layered consolidation under refinement"); Q4
 converges at order 2 from there. The script's reference is built independently of the
-solver's (solver/plan.py References._of_layers), so their agreement checks that the run
-compares what the scene is."""
+solver's (solver/consolidation/plan.py References._of_layers), so their agreement checks
+that the run compares what the scene is."""
 
 from __future__ import annotations
 

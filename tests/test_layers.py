@@ -1,7 +1,7 @@
 """Layered soils in the eigen analysis (issue 21): the options, the ground, the per-point
 material of the model, the layered-rod reference, and the scene cases/eigen-layered.opts.
 
-The reference of the done-when test is the layered 1D rod of :mod:`solver.layered` (a
+The reference of the done-when test is the layered 1D rod of :mod:`solver.references.layered` (a
 transfer-matrix solution, itself tested against closed forms in tests/test_references.py),
 fed with moduli and densities worked out here from the scene's inputs."""
 
@@ -20,7 +20,7 @@ E, NU, RHO_S, RHO_L, POROSITY = (20e6, 60e6, 150e6), 0.3, 2650.0, 1000.0, (0.5, 
 def _scene_rod(nmodes):
     """The layered rod of the scene: E_c = E (1 - nu) / ((1 + nu)(1 - 2 nu)) and the
     saturated density (1 - n) rho_s + n rho_l per layer."""
-    from solver import layered
+    from solver.references import layered
 
     E_c = [e * (1 - NU) / ((1 + NU) * (1 - 2 * NU)) for e in E]
     rho = [(1 - n) * RHO_S + n * RHO_L for n in POROSITY]
@@ -28,7 +28,7 @@ def _scene_rod(nmodes):
 
 
 def _read(values):
-    from solver import options
+    from solver.io import options
 
     return options.from_mapping(values)
 
@@ -41,7 +41,7 @@ def test_one_value_stays_a_float_and_several_give_a_tuple():
     q = _read({"layers": "0.5,0.5", "E": "1e7,3e7", "porosity": "0.3, 0.4"})
     assert q.layers == (0.5, 0.5) and q.E == (1e7, 3e7) and q.porosity == (0.3, 0.4)
     # The default scenes' parameters (signatures, provenance) keep their floats.
-    from solver import workprecision
+    from solver.consolidation import workprecision
 
     sig = workprecision.scene_signature(_read({}))
     assert all(type(sig[k]) is float for k in ("E", "nu", "rho_s", "porosity", "k"))
@@ -55,7 +55,7 @@ def test_one_value_stays_a_float_and_several_give_a_tuple():
     ({"E": "1e7,nan"}, "-mpm_E: '1e7,nan': not a finite number"),
 ])
 def test_per_layer_values_are_checked_entry_by_entry(values, message):
-    from solver.errors import InputError
+    from solver.common.errors import InputError
 
     with pytest.raises(InputError) as info:
         _read(values)
@@ -64,13 +64,13 @@ def test_per_layer_values_are_checked_entry_by_entry(values, message):
 
 # -- the ground ----------------------------------------------------------------------------
 def _ground(values):
-    from solver.soil import Ground
+    from solver.model.soil import Ground
 
     return Ground.from_options(_read(values))
 
 
 def test_ground_of_the_options():
-    from solver.soil import Soil
+    from solver.model.soil import Soil
 
     g = _ground({"layers": "0.2,0.3,0.5", "E": "1e7,2e7,3e7", "porosity": "0.5,0.4,0.3"})
     assert g.count == 3 and g.thickness == (0.2, 0.3, 0.5) and g.height == pytest.approx(1)
@@ -129,7 +129,7 @@ def test_bad_layers_exit_2_with_one_line(cli, tmp_path, args, message):
 
 def test_single_layer_consolidation_is_accepted():
     """-mpm_layers H alone is the column as without it: consolidation's checks pass."""
-    from solver.consolidation import _validate
+    from solver.consolidation.driver import _validate
 
     p = scene_options(layers="1")
     assert _validate(p)[0] == p
@@ -139,8 +139,8 @@ def test_single_layer_consolidation_is_accepted():
 def _model(values, ranks_comm=None):
     from petsc4py import PETSc
 
-    from solver.scene import Body, build
-    from solver.soil import Ground
+    from solver.model.scene import Body, build
+    from solver.model.soil import Ground
 
     p = _read(values)
     return build(ranks_comm or PETSc.COMM_SELF, Body.from_options(p), Ground.from_options(p))
@@ -153,7 +153,7 @@ def _dense(A):
 
 
 def test_identical_layers_give_the_one_layer_model():
-    from solver.scene import destroy
+    from solver.model.scene import destroy
 
     base = {"element": "q9", "cells": "1,8", "ppc": "3", "nu": "0.3"}
     one = _model(base)
@@ -170,7 +170,7 @@ def test_identical_layers_give_the_one_layer_model():
 def test_points_carry_their_layers_mass_and_stiffness():
     """Mass: sum of m_p = W sum(t_i rho_i); stiffness: a uniform vertical strain eps of a
     column on rollers stores energy W sum(t_i E_c,i) eps^2 / 2 (per metre of depth)."""
-    from solver.scene import destroy
+    from solver.model.scene import destroy
 
     values = {"element": "q4", "cells": "1,10", "ppc": "2", "nu": "0.25",
               "layers": "0.3,0.7", "E": "1e7,4e7", "rho_s": "2000,2800"}
@@ -200,7 +200,7 @@ def test_points_carry_their_layers_mass_and_stiffness():
 def test_three_layer_column_matches_the_layered_rod(cli, monkeypatch):
     """Q9, 1 x 30 cells: the first three frequencies within 0.5 % of the layered rod,
     Jacobi and SLEPc alike; the figure draws the interfaces and the layered rod's modes."""
-    from solver import eigen
+    from solver.eigen import driver as eigen
 
     figs = []
     real = eigen.mode_figure

@@ -6,9 +6,9 @@ import pytest
 from conftest import ONE_AND_TWO_RANKS, scene_options, typed
 from petsc4py import PETSc
 
-from solver import assembly, scene
-from solver.grid import Grid
-from solver.twophase import TwoPhase, point_fields
+from solver.consolidation.explicit.twophase import TwoPhase, point_fields
+from solver.model import assembly, scene
+from solver.model.grid import Grid
 
 
 def _body_soil(p):
@@ -78,8 +78,8 @@ def test_stage_is_popped_when_its_block_raises():
 
 
 def test_slepc_solver_is_destroyed_when_the_solve_fails(monkeypatch):
-    from solver import frequency
-    from solver.errors import NumericalError
+    from solver.common.errors import NumericalError
+    from solver.eigen import frequency
 
     made = scene.build(PETSc.COMM_WORLD, *_body_soil(scene_options(analysis="eigen")))
     _, _, K, M, _ = made

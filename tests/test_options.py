@@ -1,5 +1,5 @@
 """Bad input: exit code 2, one line ``solver: error: ...`` naming the option, nothing written.
-Plus the option reader (solver.options.read) in-process on a PETSc options database."""
+Plus the option reader (solver.io.options.read) in-process on a PETSc options database."""
 
 from contextlib import contextmanager
 
@@ -95,7 +95,7 @@ def test_options_file_without_name(cli, tmp_path):
 
 
 def _consolidation_only():
-    from solver import options
+    from solver.io import options
 
     return [o for o in options.SPEC if options.EIGEN not in o.used_by]
 
@@ -139,7 +139,7 @@ def test_help_lists_the_options(cli):
         assert name in res.stdout
 
 
-# -- in-process: solver.options.read on the PETSc options database -----------------------
+# -- in-process: solver.io.options.read on the PETSc options database -----------------------
 @contextmanager
 def petsc_options(values):
     from petsc4py import PETSc
@@ -157,7 +157,7 @@ def petsc_options(values):
 
 
 def read(values):
-    from solver import options
+    from solver.io import options
 
     with petsc_options(values) as db:
         return options.read(db=db)
@@ -206,7 +206,7 @@ def test_values_are_parsed():
     ({"nodes": "3"}, "nodes"),
 ])
 def test_read_rejects(values, name):
-    from solver.errors import InputError
+    from solver.common.errors import InputError
 
     with pytest.raises(InputError) as info:
         read(values)
@@ -216,12 +216,12 @@ def test_read_rejects(values, name):
 
 
 def test_every_consolidation_option_rejected_for_eigen():
-    from solver.errors import InputError
+    from solver.common.errors import InputError
 
     only = _consolidation_only()
     if not only:
         pytest.skip("no consolidation-only options")
-    from solver import options
+    from solver.io import options
 
     for opt in only:
         value = options._describe(opt, opt.default)
@@ -253,7 +253,7 @@ def test_cases_files_parse():
 
 # -- options.from_mapping: the same Params without PETSc's database -------------------------
 def _from_command_line(argv):
-    from solver import options
+    from solver.io import options
 
     with options.command_line(["solver", *argv]):
         return options.read()
@@ -266,7 +266,7 @@ def test_from_mapping_equals_read_over_a_command_line(scene):
     the Params the command line gives (the command line with an override on top)."""
     from petsc4py import PETSc
 
-    from solver import options, scenefile
+    from solver.io import options, scenefile
 
     path = str(REPO / "cases" / f"{scene}.opts")
     argv = ["-options_file", path, "-mpm_cells", "2,20", "-mpm_figures", "0"]
@@ -285,7 +285,7 @@ def test_from_mapping_equals_read_over_a_command_line(scene):
 
 
 def test_from_mapping_keeps_the_base_and_the_defaults():
-    from solver import options
+    from solver.io import options
 
     base = {"E": 2e7, "Tv_report": [0.1, 0.2], "dt": None}
     p = options.from_mapping({"analysis": "consolidation", "nu": 0.25}, base=base)
@@ -301,8 +301,8 @@ def test_from_mapping_keeps_the_base_and_the_defaults():
 def test_from_mapping_rejects_with_reads_message(values):
     from petsc4py import PETSc
 
-    from solver import options
-    from solver.errors import InputError
+    from solver.common.errors import InputError
+    from solver.io import options
 
     with pytest.raises(InputError) as by_read:
         read(values)
@@ -322,8 +322,8 @@ def test_from_mapping_rejects_with_reads_message(values):
     ({"element": "q5"}, "-mpm_element q5: unknown value 'q5' (choose from q4, q8, q9)"),
 ])
 def test_from_mapping_checks_python_values(values, text):
-    from solver import options
-    from solver.errors import InputError
+    from solver.common.errors import InputError
+    from solver.io import options
 
     with pytest.raises(InputError) as info:
         options.from_mapping(values)
@@ -332,6 +332,6 @@ def test_from_mapping_checks_python_values(values, text):
 
 def test_readme_option_table_is_the_generated_one():
     """README's option table is options.table() as it is (regenerate it when SPEC changes)."""
-    from solver import options
+    from solver.io import options
 
     assert options.table() in (REPO / "README.md").read_text()

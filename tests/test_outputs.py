@@ -41,7 +41,7 @@ def terzaghi_mean(Tv, nodes=400):
 # -- the analytic degree of consolidation -------------------------------------------------
 @pytest.mark.parametrize("Tv", [0.01, 0.03, 0.1, 0.2, 0.5, 1.0, 2.0])
 def test_degree_of_consolidation_is_the_mean_of_the_pressure(Tv):
-    from solver import analytic
+    from solver.references import analytic
 
     assert analytic.degree_of_consolidation(Tv) == pytest.approx(1 - terzaghi_mean(Tv),
                                                                  abs=1e-12)
@@ -50,14 +50,14 @@ def test_degree_of_consolidation_is_the_mean_of_the_pressure(Tv):
 @pytest.mark.parametrize("Tv", [1e-9, 1e-6, 1e-4, 1e-3, 0.005])
 def test_degree_of_consolidation_early(Tv):
     """Before the base is felt (images below 1e-25 at these times) U = 2 sqrt(T_v / pi)."""
-    from solver import analytic
+    from solver.references import analytic
 
     assert analytic.degree_of_consolidation(Tv) == pytest.approx(
         2 * math.sqrt(Tv / math.pi), rel=1e-12, abs=1e-15)
 
 
 def test_degree_of_consolidation_arrays_and_switch():
-    from solver import analytic
+    from solver.references import analytic
 
     T = np.array([[-1.0, 0.0], [0.00699999999, 0.007]])
     U = analytic.degree_of_consolidation(T)
@@ -335,7 +335,7 @@ def test_bad_figure_format_is_an_input_error(cli, tmp_path, value):
 def test_xdmf_index_is_whole_after_every_step(tmp_path):
     """A job killed between two steps keeps every step written: after each write the index
     on disk lists them all and reads back; nothing half-written stays behind."""
-    from solver import output
+    from solver.io import output
 
     series = output.XdmfSeries(str(tmp_path / "pts.xdmf"))
     xy = np.array([[0.0, 0.0], [1.0, 0.5], [2.0, 1.0]])
@@ -365,7 +365,7 @@ def test_xdmf_series_appends_in_constant_work_per_output(tmp_path):
     same number of bytes per output (its Time value aside); the index on disk is the whole
     series, which meshio reads back, first and last step included. Whole rewrites made
     the cost grow with the outputs (issue 22: 1,181 outputs took 100 s)."""
-    from solver import output
+    from solver.io import output
 
     path = tmp_path / "pts.xdmf"
     series = output.XdmfSeries(str(path), run_id="run-a")
@@ -393,7 +393,7 @@ def test_xdmf_series_appends_in_constant_work_per_output(tmp_path):
 
 def test_xdmf_index_rewritten_whole_when_its_end_is_not_its_own(tmp_path):
     """An index whose end another hand changed is written whole again, not appended to."""
-    from solver import output
+    from solver.io import output
 
     path = tmp_path / "pts.xdmf"
     series = output.XdmfSeries(str(path))
@@ -453,8 +453,8 @@ def test_report_errors_at_scale_cost_little_memory():
 
     from mpi4py import MPI
 
-    from solver import analytic
-    from solver.reporting import Heights
+    from solver.consolidation.reporting import Heights
+    from solver.references import analytic
 
     n, H, q = 200_000, 1.0, 1e4
     rng = np.random.default_rng(3)

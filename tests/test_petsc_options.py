@@ -96,7 +96,7 @@ def test_help_with_a_bad_value_still_shows_the_table(tmp_path):
 def _read(values):
     from petsc4py import PETSc
 
-    from solver import options
+    from solver.io import options
 
     db = PETSc.Options()
     for k, v in values.items():
@@ -120,7 +120,7 @@ def test_params_are_frozen():
 
 
 def test_workprecision_apply_returns_a_new_value():
-    from solver import workprecision
+    from solver.consolidation import workprecision
 
     p = _read({"analysis": "consolidation"})
     choice = {"element": "q9", "cells": [1, 20], "ppc": 3, "dt_safety": 0.25}
@@ -131,7 +131,7 @@ def test_workprecision_apply_returns_a_new_value():
 
 
 def test_table_value_column():
-    from solver import options
+    from solver.io import options
 
     p = _read({"element": "q8", "cells": "2,20"})
     text = options.table(values=p)
@@ -184,7 +184,7 @@ def test_command_line_in_process_holds_for_the_call_only(tmp_path):
     numbers as values, flags without one; the database as it was afterwards."""
     from petsc4py import PETSc
 
-    from solver import options
+    from solver.io import options
 
     db = PETSc.Options()
     db.setValue("mpm_test_kept", "1")

@@ -136,8 +136,9 @@ def test_biot_solve_that_does_not_converge_raises():
     (a NumericalError, exit 3 where a command runs it), not a wrong reference."""
     from petsc4py import PETSc
 
-    from solver import biot, options
-    from solver.errors import NotConverged, NumericalError
+    from solver.common.errors import NotConverged, NumericalError
+    from solver.io import options
+    from solver.references import biot
 
     with options.command_line(["test", "-biot_ksp_type", "gmres", "-biot_pc_type", "none",
                                "-biot_ksp_max_it", "2"]):
@@ -196,8 +197,9 @@ def test_geostatic_start_takes_K0_per_layer(K0, want):
     from petsc4py import PETSc
 
     from conftest import scene_options
-    from solver import scene, twophase
-    from solver.soil import Ground
+    from solver.consolidation.explicit import twophase
+    from solver.model import scene
+    from solver.model.soil import Ground
 
     p = scene_options(**LAYERED, **({"K0": K0} if K0 else {}))
     ground = Ground.from_options(p)
@@ -251,7 +253,7 @@ def test_memory_advice_fits_the_analysis(cli, tmp_path, monkeypatch):
     points (it has no eigen solver to change); an eigen model whose Jacobi matrices alone
     do not fit is told SLEPc's need, under the limit; one too large for SLEPc as well is
     not told to use it. Nothing is written."""
-    from solver import memory
+    from solver.io import memory
 
     monkeypatch.setattr(memory, "available", lambda: 16 * 2**30)
     res = cli(QUIET + ["-mpm_cells", "2000,2000"], options_file=M1)

@@ -117,8 +117,8 @@ def test_other_soils(runs, soil, element):
 def _two_way_errors(summary, out_dir):
     """{T_v: (largest |p/q - reference| over the points, largest spread of that error
     inside one cell)} of a two-way drained column run, the reference Terzaghi's series
-    with compressible water (solver.analytic.column_pressure, tested on its own)."""
-    from solver import analytic
+    with compressible water (solver.references.analytic.column_pressure, tested on its own)."""
+    from solver.references import analytic
 
     o = summary["provenance"]["options"]["mpm"]
     H, ny = o["size"][1], o["cells"][1]
@@ -169,9 +169,10 @@ def _linearised(element, cells, **scheme):
 
     from conftest import typed
 
-    from solver import options, timestep
-    from solver.grid import Grid
-    from solver.points import place
+    from solver.consolidation.explicit import timestep
+    from solver.io import options
+    from solver.model.grid import Grid
+    from solver.model.points import place
 
     db = PETSc.Options()
     given = dict(analysis="consolidation", element=element, cells=cells, ppc=3, **scheme)

@@ -1,7 +1,7 @@
 """The README against the code: its sections in the order a newcomer reads them, the two
 set-up commands that CI runs, the main job's output as the solver prints it, the scenes
 table against cases/, the outputs table against the files a run writes and their CSV
-headers, the exit codes against solver/errors.py, every link resolving, and the module map
+headers, the exit codes against solver/common/errors.py, every link resolving, and the module map
 of docs/code.md against solver/. (The option table: tests/test_options.py; the files of a
 scene without a closed form: tests/test_fe_reference.py.)"""
 
@@ -26,8 +26,8 @@ def _code_lines(section: str) -> list:
 
 
 def _scene(name: str):
-    """The -mpm_ options of cases/NAME.opts as the solver reads them (solver.options.Params)."""
-    from solver import options, scenefile
+    """The -mpm_ options of cases/NAME.opts as the solver reads them (solver.io.options.Params)."""
+    from solver.io import options, scenefile
 
     given = {k[len(scenefile.PREFIX):]: v for k, v in scenefile.pairs(CASES / f"{name}.opts")
              if k.startswith(scenefile.PREFIX)}
@@ -91,13 +91,13 @@ def _reference_words(p) -> set:
     cross-checked by SLEPc against the rod (layered or not); a consolidation scene without
     a closed form has the FE, a layered column the layered column's solution, a load alone
     Terzaghi."""
-    from solver import plan
+    from solver.consolidation import plan
 
     if p.analysis == "eigen":
         return {"SLEPc", "layered rod" if len(p.layers) > 1 else "analytic rod"}
     t = typed(p)
     if plan.no_reference(t.body, t.loading):
-        return {"FE", "solver/biot.py", "static"}
+        return {"FE", "solver/references/biot.py", "static"}
     if len(p.layers) > 1:
         return {"layered column"}
     return {"own solution"} if t.loading.self_weight else {"Terzaghi"}
@@ -165,8 +165,8 @@ def test_every_file_a_column_run_writes_is_in_the_outputs_table(tmp_path):
 # -- exit codes ------------------------------------------------------------------------------
 def test_the_exit_code_table_is_solver_errors():
     """The codes are 0 and errors.KINDS, each with its kind and the classes that raise it;
-    every failure class of solver/errors.py is in its code's row."""
-    from solver import errors
+    every failure class of solver/common/errors.py is in its code's row."""
+    from solver.common import errors
 
     rows = readme_table("Exit codes")
     codes = [int(row[0]) for row in rows]

@@ -1,7 +1,7 @@
-"""The references that follow the scene (solver/analytic.py: column_*, undrained_excess;
-solver/layered.py) against independent ones: Terzaghi's series by symmetry, finite elements
-of the same 1D problems written here (exact in time through their eigenpairs, extrapolated
-in space), an undrained energy minimum, and limits."""
+"""The references that follow the scene (solver/references/analytic.py: column_*, undrained_excess;
+solver/references/layered.py) against independent ones: Terzaghi's series by symmetry,
+finite elements of the same 1D problems written here (exact in time through their
+eigenpairs, extrapolated in space), an undrained energy minimum, and limits."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.linalg import eigh, eigh_tridiagonal
 
-from solver import analytic, layered
+from solver.references import analytic, layered
 
 GAMMA_W = 1000.0 * 9.81
 Q = 1.0e4

@@ -126,7 +126,7 @@ def test_restart_never_mixes_two_runs(cli, tmp_path):
 
     s = check_ok(cli(args + ["-mpm_overwrite"], options_file=M1, out_dir=x))
     assert s["run_id"] == first["run_id"]
-    from solver import output
+    from solver.io import output
 
     # Its own run's times only: those after the checkpoint's step 700 (the checkpoint's
     # earlier time, T_v = 0.01, lies in B's folder, not in X).
@@ -207,10 +207,12 @@ def _signal_in(monkeypatch, target, signum):
 
 
 @pytest.mark.parametrize("target, signum, stage", [
-    ("solver.timestep.discrete_limit", signal.SIGINT, "set-up: the stability analysis"),
-    ("solver.frequency.fundamental_frequency", signal.SIGTERM,
+    ("solver.consolidation.explicit.timestep.discrete_limit", signal.SIGINT,
+     "set-up: the stability analysis"),
+    ("solver.eigen.frequency.fundamental_frequency", signal.SIGTERM,
      "set-up: the fundamental frequency f1"),
-    ("solver.inertia.scaling", signal.SIGINT, "set-up: the time scheme and mass scaling")])
+    ("solver.consolidation.explicit.inertia.scaling", signal.SIGINT,
+     "set-up: the time scheme and mass scaling")])
 def test_signal_in_the_set_up(cli, tmp_path, monkeypatch, target, signum, stage):
     _signal_in(monkeypatch, target, signum)
     res = cli(QUIET + ["-mpm_mass_scaling", "auto"], options_file=M1, out_dir=tmp_path)
@@ -230,7 +232,7 @@ def test_signal_in_the_set_up(cli, tmp_path, monkeypatch, target, signum, stage)
 def test_signal_in_the_reporting_checkpoints_the_whole_run(cli, tmp_path, monkeypatch):
     """A signal after the last step, while the results are written: exit 4, a checkpoint
     of the whole run, from which -mpm_restart alone does the reporting again."""
-    _signal_in(monkeypatch, "solver.reporting.write_files", signal.SIGTERM)
+    _signal_in(monkeypatch, "solver.consolidation.reporting.write_files", signal.SIGTERM)
     res = cli(QUIET + ["-mpm_Tv_end", "0.02"], options_file=M1, out_dir=tmp_path)
     assert res.returncode == 4, res.stderr
     ckpt = tmp_path / "checkpoint.npz"
@@ -247,7 +249,7 @@ def test_signal_in_the_reporting_checkpoints_the_whole_run(cli, tmp_path, monkey
 
 
 def test_signal_in_the_eigen_analysis(cli, tmp_path, monkeypatch):
-    _signal_in(monkeypatch, "solver.jacobi.solve", signal.SIGTERM)
+    _signal_in(monkeypatch, "solver.eigen.jacobi.solve", signal.SIGTERM)
     res = cli(["-mpm_figures", "0"], options_file="eigen-q4", out_dir=tmp_path)
     assert res.returncode == 4, res.stderr
     assert res.stderr == ("solver: error: stopped by SIGTERM during the eigen analysis; "

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import check_ok
 
-from solver import analytic
-from solver.soil import constrained_modulus
+from solver.model.soil import constrained_modulus
+from solver.references import analytic
 
 REPORTS = (0.05, 0.2, 0.5)
 COLUMN = ["-mpm_cells", "1,20", "-mpm_Tv_end", "0.5", "-mpm_Tv_report",
@@ -180,9 +180,9 @@ def test_static_ends_of_a_column_are_the_closed_forms(element, ppc):
     undrained settlement q H / (E_c + K_l / n) and the final q H / E_c, to round-off."""
     from petsc4py import PETSc
 
-    from solver import static
-    from solver.scene import Body, Loading
-    from solver.soil import Soil
+    from solver.model.scene import Body, Loading
+    from solver.model.soil import Soil
+    from solver.references import static
 
     soil, q, H = Soil(), 1e4, 1.0
     body = Body(element=element, cells=(1, 10), size=(0.1, H), ppc=ppc)

@@ -32,12 +32,12 @@ def test_every_command_is_a_relative_symlink_to_its_module():
 def test_importing_a_script_runs_nothing(name, monkeypatch, capfd):
     """Import alone neither re-launches under another Python, nor touches sys.path, nor
     runs main(), which with ``--help`` in argv would print its usage and exit."""
-    import solver.launch
+    import solver.io.launch
 
     def launched():
         raise AssertionError(f"importing {name} launched it")
 
-    monkeypatch.setattr(solver.launch, "use_petsc_python", launched)
+    monkeypatch.setattr(solver.io.launch, "use_petsc_python", launched)
     monkeypatch.setattr(sys, "argv", [name, "--help"])
     monkeypatch.syspath_prepend(str(SCRIPTS))
     monkeypatch.delitem(sys.modules, name, raising=False)

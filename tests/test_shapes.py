@@ -1,10 +1,11 @@
-"""Shape functions of the background cells (solver.shapes) against independent references."""
+"""Shape functions of the background cells (solver.model.shapes) against independent references."""
 
 import numpy as np
 import pytest
 from numba import njit
 
-from solver import kernels, shapes
+from solver.consolidation.explicit import kernels
+from solver.model import shapes
 
 ELEMENTS = ("q4", "q8", "q9")
 NEN = {"q4": 4, "q8": 8, "q9": 9}
@@ -145,7 +146,7 @@ def _kernel_rows(off, C, R, x, blend):
 @pytest.mark.parametrize("element", ELEMENTS)
 def test_step_kernels_use_the_same_functions(element):
     """The explicit step's shape functions (kernels._shape: the point's cell and natural
-    coordinates, the formulas of solver.shapes compiled with the kernels' options, d/dx =
+    coordinates, the formulas of solver.model.shapes compiled with the kernels' options, d/dx =
     2/h d/dxi) and blended basis (kernels._blended) equal shapes.evaluate and
     shapes.blended at the same natural coordinates, at random points of a 4 x 2 grid;
     evaluate itself is checked against independent references above. Fused multiply-adds

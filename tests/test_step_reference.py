@@ -20,11 +20,12 @@ import pytest
 from conftest import check_ok, scene_options, typed
 from petsc4py import PETSc
 
-from solver import assembly, kernels, twophase
-from solver.grid import Grid
-from solver.points import place
-from solver.scene import water_forces
-from solver.shapes import BLEND
+from solver.consolidation.explicit import kernels, twophase
+from solver.model import assembly
+from solver.model.grid import Grid
+from solver.model.points import place
+from solver.model.scene import water_forces
+from solver.model.shapes import BLEND
 
 
 def _params(**opts):

@@ -16,7 +16,9 @@ import pytest
 from conftest import (PYTHON, REPO, check_ok, clean_env, option_entries, run_command,
                       script_module)
 
-from solver import output, study, workprecision
+from solver.consolidation import workprecision
+from solver.io import output
+from solver.studies import study
 
 SHORT = ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02", "-mpm_progress", "0",
          "-mpm_figures", "0"]

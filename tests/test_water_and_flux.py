@@ -14,10 +14,10 @@ import pytest
 from conftest import check_ok
 from petsc4py import PETSc
 
-from solver import analytic, layered
-from solver.grid import Grid
-from solver.scene import water_forces
-from solver.soil import G_REF, constrained_modulus
+from solver.model.grid import Grid
+from solver.model.scene import water_forces
+from solver.model.soil import G_REF, constrained_modulus
+from solver.references import analytic, layered
 
 Q = 50e3
 G = 9.81

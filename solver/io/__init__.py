@@ -1,0 +1,22 @@
+"""What goes in and out of a run: the options read from the command line and the scene files;
+the results on disk (summaries, fields, figures, checkpoints, provenance, what a stopped run
+leaves); the memory check before anything is allocated; the start-up of the executables. It
+knows nothing of the analyses: they call it.
+
+- ``options``: the -mpm_ options: declared once, read once, checked;
+- ``scenefile``: a scene file (cases/*.opts), checked line by line and read as pairs;
+- ``output``: JSON, VTU, XDMF + HDF5 series and figures written whole; where results go;
+- ``fields``: the point fields of a run as a time series on disk;
+- ``figures``: isochrones, pressure field, degree of consolidation;
+- ``checkpoint``: checkpoints of explicit runs, and the restart's checks;
+- ``provenance``: versions, git commit and options for the summary;
+- ``failure``: what a run that stops early writes;
+- ``memory``: the memory a model needs, checked before anything is allocated;
+- ``launch``: the Python the executables run under (one that imports PETSc).
+
+May import: references, model, common.
+
+The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+consolidation, studies; then the command line (solver/__main__.py). A module imports its own
+room and the rooms before it, never one after it (tests/test_rooms.py).
+"""

@@ -1,0 +1,16 @@
+"""Independent references the analyses are checked against: closed forms, the series of layered
+columns, finite-element and static solutions of a scene. They build on the model; the model
+never builds on them (a reference the model were made of would check nothing).
+
+- ``analytic``: closed forms: the vibrating rod, Terzaghi's pressure and degree of
+  consolidation;
+- ``layered``: layered columns: a layered rod's frequencies, consolidation by modes;
+- ``biot``: the finite-element reference: quasi-static Biot u-p, Taylor-Hood Q9/Q4;
+- ``static``: the undrained and final settlements by static solves.
+
+May import: model, common.
+
+The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+consolidation, studies; then the command line (solver/__main__.py). A module imports its own
+room and the rooms before it, never one after it (tests/test_rooms.py).
+"""
