@@ -196,15 +196,20 @@ def settlement_time(plt, t, settlement, s0: float, s_inf: float, cv: float, rati
             label="MPM, surface settlement")
     ax.axhline(1e3 * s_inf, color="0.5", lw=0.8, ls="--",
                label=f"final settlement {1e3 * s_inf:.4g} mm")
-    ax.set_xscale("log")
+    _settlement_axes(ax, unit, title)
     ax.set_xlim(tt[0] / sec, tt[-1] / sec)
+    return fig
+
+
+def _settlement_axes(ax, unit: str, title: str) -> None:
+    """A settlement-time plot's axes: log time in ``unit``, settlement (mm) downwards."""
+    ax.set_xscale("log")
     ax.invert_yaxis()                    # settlement grows downwards, as the ground moves
     ax.set_xlabel(f"time t ({unit})")
     ax.set_ylabel("surface settlement (mm, downwards)")
     ax.set_title(title)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="upper right")
-    return fig
 
 
 def settlement_trough(plt, troughs, extent, ends, title: str, fe=()):
@@ -294,11 +299,5 @@ def settlement_time_2d(plt, t, axis, mean, x_axis: float, extent, fe, ends, titl
             ax.annotate(f"static {words} mean {1e3 * value:.4g} mm", (0.01, 1e3 * value),
                         xycoords=("axes fraction", "data"), fontsize=7, color="0.3",
                         va="bottom")
-    ax.set_xscale("log")
-    ax.invert_yaxis()                    # settlement grows downwards, as the ground moves
-    ax.set_xlabel(f"time t ({unit})")
-    ax.set_ylabel("surface settlement (mm, downwards)")
-    ax.set_title(title)
-    ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, loc="upper right")
+    _settlement_axes(ax, unit, title)
     return fig
