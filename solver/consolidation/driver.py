@@ -272,8 +272,9 @@ def _target(p, comm) -> tuple:
     if math.isnan(p.target_error):
         return p, None
     given = {k: getattr(p, k) for k in workprecision.PICKED if k in p.given}
+    scheme = {k: getattr(p, k) for k in workprecision.SCHEME_KEYS}
     choice, lines, measured_tv = workprecision.pick(workprecision.scene_signature(p), given,
-                                                    p.target_error, p.work_precision)
+                                                    p.target_error, p.work_precision, scheme)
     p = workprecision.apply(p, choice)
     PETSc.Sys.Print("\n".join(lines), comm=comm)
     return p, {"target_pct": p.target_error, "picked": {k: choice[k] for k in

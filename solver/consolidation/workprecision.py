@@ -122,12 +122,14 @@ def _describe(run) -> str:
             f"{run['ppc']} x {run['ppc']} points per cell, dt_safety {run['dt_safety']:g}")
 
 
-def pick(scene: dict, given: dict, target: float, path: str = ""):
+def pick(scene: dict, given: dict, target: float, path: str = "", scheme: dict = None):
     """The cheapest measured run (fewest material points x steps) with error <= ``target``
     (%), the lines that explain the choice and the T_v the data measured, for the run of
     :func:`scene_signature` ``scene`` that gives the options ``given`` ({name: value} of
-    PICKED's that its command line or scene sets). InputError when the data do not fit the
-    scene or no measured run meets the target."""
+    PICKED's that its command line or scene sets) and the scheme options ``scheme`` ({name:
+    value or 'auto'} of SCHEME_KEYS; missing: auto): runs measured with another scheme are
+    left out. InputError when the data do not fit the scene or no measured run meets the
+    target."""
     path = path or DEFAULT
     data = load(path)
     bad = _mismatch(data["scene"], scene)
@@ -142,9 +144,7 @@ def pick(scene: dict, given: dict, target: float, path: str = ""):
                          "monitor point only; run scripts/convergence-study again to measure "
                          "the profile and U too")
     measured = [r for r in data["runs"] if math.isfinite(r.get("measure", math.nan))]
-    choices = {k: getattr(p, k) for k in ("lumping", "kinematics", "pressure_projection",
-                                           "liquid_basis")}
-    runs = [r for r in measured if _same_scheme(r, choices)]
+    runs = [r for r in measured if _same_scheme(r, scheme or {})]
     meets = sorted((r for r in runs if r["measure"] <= target), key=lambda r: r["cost"])
     if not meets:
         best = min(runs, key=lambda r: r["measure"])
@@ -176,6 +176,9 @@ def pick(scene: dict, given: dict, target: float, path: str = ""):
         lines.append("  this overrides " + ", ".join(
             f"-mpm_{k} {_text(given[k])}" for k in overridden))
     return choice, lines, tuple(data["Tv"])
+
+
+SCHEME_KEYS = ("lumping", "kinematics", "pressure_projection", "liquid_basis")
 
 
 def _same_scheme(run, choices: dict) -> bool:
