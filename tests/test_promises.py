@@ -66,10 +66,11 @@ def test_restart_ending_before_its_checkpoint_is_refused(cli, tmp_path):
 
 def test_footing_narrower_than_the_point_spacing(cli, tmp_path):
     """A footing that covers no column of material points (points every 0.0625 m from
-    x = 0.03125 m on the strip scene) exits 2 in one line naming -mpm_load_extent and the
+    x = 0.03125 m on the strip scene's 16 x 8 cells) exits 2 in one line naming -mpm_load_extent and the
     narrowest load that works, and writes nothing; that load runs, its settlement under
     the load measured and set beside the static ends."""
-    res = cli(QUIET + ["-mpm_load_extent", "0,0.02"], options_file="consolidation-strip")
+    res = cli(QUIET + ["-mpm_cells", "16,8", "-mpm_load_extent", "0,0.02"],
+              options_file="consolidation-strip")
     assert res.returncode == 2
     assert _error_line(res.stderr) == (
         "solver: error: -mpm_load_extent 0,0.02: covers no column of material points, where "
@@ -77,8 +78,9 @@ def test_footing_narrower_than_the_point_spacing(cli, tmp_path):
         "there is -mpm_load_extent 0,0.03125 (0.03125 m wide, to the points at x = "
         "0.03125 m)")
     assert not (tmp_path / "out").exists()
-    res = cli(QUIET + ["-mpm_load_extent", "0,0.03125", "-mpm_Tv_end", "0.001",
-                       "-mpm_stability_analysis", "0"], options_file="consolidation-strip")
+    res = cli(QUIET + ["-mpm_cells", "16,8", "-mpm_load_extent", "0,0.03125", "-mpm_Tv_end",
+                       "0.001", "-mpm_stability_analysis", "0"],
+              options_file="consolidation-strip")
     summary = check_ok(res)
     assert res.stderr == ""
     ends = summary["static_references"]
