@@ -237,7 +237,7 @@ def test_gravity_at_rest_reports_the_excess_against_the_same_fe(cli, tmp_path, s
     res = cli([*args], options_file="consolidation-strip", out_dir=tmp_path / "dep")
     dep = check_ok(res)
     assert dep["fe_reference"] == {"available": False, "why": fe_reference.why_not(
-        plan.References(1, 1, 1, 1, 1, why="x"), Loading(gravity=9.81), Body(), True)}
+        plan.References(1, 1, 1, 1, 1, why="x"), Loading(gravity=9.81), True)}
     assert res.stdout.count("No FE reference: a fresh deposit under gravity") == 1
     assert not (tmp_path / "dep" / "fe_reference.csv").exists()
 
@@ -292,16 +292,14 @@ def test_fe_grid_follows_the_scene():
 
 def test_fe_reference_only_where_it_is_the_scenes_own():
     refs = plan.References(1, 1, 1, 1, 1, why="a load over part of the top")
-    body = Body(size=(2.0, 1.0), drained=("top",))
-    assert fe_reference.why_not(refs, Loading(extent=(0, 0.5)), body, True) == ""
-    assert fe_reference.why_not(refs, Loading(gravity=9.81, geostatic=True), body, True) == ""
-    assert "turned off" in fe_reference.why_not(refs, Loading(), body, False)
-    assert "applies it at once" in fe_reference.why_not(refs, Loading(ramp=1.0), body, True)
-    sides = Body(size=(2.0, 1.0), drained=("top", "left"))
-    # A side drained under gravity holds the water table: its excess is the FE's.
-    assert fe_reference.why_not(refs, Loading(gravity=9.81, geostatic=True), sides, True) == ""
+    assert fe_reference.why_not(refs, Loading(extent=(0, 0.5)), True) == ""
+    # At rest under gravity, drained sides included (they hold the water table): the excess
+    # is the FE's.
+    assert fe_reference.why_not(refs, Loading(gravity=9.81, geostatic=True), True) == ""
+    assert "turned off" in fe_reference.why_not(refs, Loading(), False)
+    assert "applies it at once" in fe_reference.why_not(refs, Loading(ramp=1.0), True)
     assert "closed form" in fe_reference.why_not(plan.References(1, 1, 1, 1, 1), Loading(),
-                                                 body, True)
+                                                 True)
 
 
 def test_the_axis_of_a_scene():

@@ -112,10 +112,11 @@ class FEReference:
                 f"{self.seconds:.1f} s")
 
 
-def why_not(refs, loading, body, wanted: bool) -> str:
+def why_not(refs, loading, wanted: bool) -> str:
     """Why the scene gets no FE reference ('' when it gets one): it has a closed form, the
     FE is turned off (``wanted`` False: -mpm_fe_reference 0) or would not be the scene's
-    own. ``refs`` the plan's References, ``loading`` scene.Loading, ``body`` scene.Body."""
+    own. ``refs`` the plan's References, ``loading`` scene.Loading. (A side drained under
+    gravity holds the water table's hydrostatic pressure, so its excess is the FE's.)"""
     if refs.available:
         return "the scene has a closed form"
     if not wanted:
@@ -300,7 +301,7 @@ def attach(comm, refs, scene_, points, schedule, monitor, wanted, fe_cells=()) -
     soil, body, loading = scene_
     found = probes(points, body, plan.axis(body, loading), monitor, comm.tompi4py(),
                    refs.static.x if refs.static else ())
-    why = why_not(refs, loading, body, wanted)
+    why = why_not(refs, loading, wanted)
     if why:
         PETSc.Sys.Print(f"No FE reference: {why}", comm=comm)
         return dataclasses.replace(refs, fe_why=why), found

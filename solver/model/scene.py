@@ -223,7 +223,7 @@ def water_forces(grid, drained, gamma_w: float, blend: float = 1.0) -> np.ndarra
         d = 0 if side == "bottom" else 1                       # the direction along the side
         h, cells = grid.h[d], grid.cells[d]
         t = (np.arange(cells)[:, None] + (1 + s) / 2) * h      # along the side, per edge
-        p = gamma_w * (H - (t if d == 1 else 0.0 * t))
+        p = gamma_w * (H - t) if d == 1 else np.full_like(t, gamma_w * H)   # y = 0 on the base
         edge = np.einsum("g,cg,ga->ca", w * h / 2, p, N)       # (cells, order + 1)
         f = np.zeros(grid.nodes[d])
         for a in range(order + 1):

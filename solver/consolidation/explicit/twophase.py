@@ -253,8 +253,9 @@ class TwoPhase:
         if gamma_w > 0:
             own = np.s_[g.ys:g.ye, g.xs:g.xe]
             out[:, :2] = water_forces(g, body.drained, gamma_w)[own].reshape(-1, 2)
-            blend = shapes.BLEND if self.blend else 1.0
-            out[:, 2:] = water_forces(g, body.drained, gamma_w, blend)[own].reshape(-1, 2)
+            # The liquid's own basis where it is blended; else the element's, the same forces.
+            out[:, 2:] = (water_forces(g, body.drained, gamma_w, shapes.BLEND)[own].reshape(-1, 2)
+                          if self.blend else out[:, :2])
         return out
 
     def _integers(self, I):
