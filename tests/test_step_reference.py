@@ -115,8 +115,10 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
     # The water outside drained sides under gravity, at its hydrostatic pressure.
     drained = tuple(s for s in p.drained if s != "none")
     fm += water_forces(grid, drained, p.rho_l * p.gravity).reshape(-1, 2)
-    G[:, 10:12] += water_forces(grid, drained, p.rho_l * p.gravity,
-                                BLEND if scheme.liquid_basis == "blended" else 1.0).reshape(-1, 2)
+    if not corner:      # the corner projection's gradient-form liquid force holds the sides
+        G[:, 10:12] += water_forces(grid, drained, p.rho_l * p.gravity,
+                                    BLEND if scheme.liquid_basis == "blended" else 1.0
+                                    ).reshape(-1, 2)
     if damping:
         fm -= damping * np.abs(fm) * np.sign(Ms[:, None] * vs_n + Ml[:, None] * vl_n)
     fs = grid.constrained_mask(bcs).reshape(-1, 2)

@@ -254,8 +254,14 @@ class TwoPhase:
             own = np.s_[g.ys:g.ye, g.xs:g.xe]
             out[:, :2] = water_forces(g, body.drained, gamma_w)[own].reshape(-1, 2)
             # The liquid's own basis where it is blended; else the element's, the same forces.
-            out[:, 2:] = (water_forces(g, body.drained, gamma_w, shapes.BLEND)[own].reshape(-1, 2)
-                          if self.blend else out[:, :2])
+            # The corner projection's liquid force is in gradient form, -N_l V grad p, with
+            # no boundary term: it holds the drained sides' pressures instead (at their
+            # hydrostatic start), so the outside water adds nothing to the liquid there.
+            if self.project == kernels.PCORNER:
+                out[:, 2:] = 0.0
+            else:
+                out[:, 2:] = (water_forces(g, body.drained, gamma_w, shapes.BLEND)[own]
+                              .reshape(-1, 2) if self.blend else out[:, :2])
         return out
 
     def _integers(self, I):
