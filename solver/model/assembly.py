@@ -67,12 +67,19 @@ def strain_matrix(dNdx) -> np.ndarray:
     return B
 
 
+def stiffness_blocks(interp: Interpolation, D, volume):
+    """Each point's stiffness block B^T D B V (N/m), (np, 2 nen, 2 nen); D (Pa) is one 3 x 3
+    matrix for all points or one per point, (np, 3, 3). The eigen model and the implicit
+    consolidation scheme both take K from here."""
+    B = strain_matrix(interp.dNdx)
+    return np.einsum("pki,kl,plj->pij" if np.ndim(D) == 2 else "pki,pkl,plj->pij", B, D, B,
+                     optimize=True) * volume[:, None, None]
+
+
 def point_matrices(interp: Interpolation, D, volume, mass):
     """Each point's stiffness (N/m) and consistent mass (kg) blocks, (np, 2 nen, 2 nen);
-    D (Pa) is one 3 x 3 matrix for all points or one per point, (np, 3, 3)."""
-    B = strain_matrix(interp.dNdx)
-    Ke = np.einsum("pki,kl,plj->pij" if np.ndim(D) == 2 else "pki,pkl,plj->pij", B, D, B,
-                   optimize=True) * volume[:, None, None]
+    D (Pa) as :func:`stiffness_blocks` takes it."""
+    Ke = stiffness_blocks(interp, D, volume)
     NN = mass[:, None, None] * interp.N[:, :, None] * interp.N[:, None, :]
     Me = np.zeros_like(Ke)
     Me[:, 0::2, 0::2] = NN

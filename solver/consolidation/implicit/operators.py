@@ -1,0 +1,167 @@
+"""The u-p operators of quasi-static Biot consolidation, integrated over the material points.
+
+Each point p of volume V_p and its layer's soil adds (SI units, per metre out of plane;
+effective stress tension positive, pore pressure compression positive):
+
+    K = sum V B^T D B                      (assembly.stiffness_blocks: the eigen model's K)
+    Q = sum V B^T m N_p                    (coupling, m = (1, 1, 0))
+    S = sum V (n / K_l) N_p N_p^T          (storage of the compressible water)
+    H = sum V (k / gamma_w) grad N_p . grad N_p^T     (Darcy flow, gamma_w = rho_l 9.81)
+
+N_p is the pressure basis: the bilinear functions of the cells' corner nodes (on Q4 cells
+the displacement's own, on Q8 and Q9 cells the Taylor-Hood Q8/Q4 and Q9/Q4 pairs). The
+unknowns share a DMDA of three DOFs per lattice node (u_x, u_y, p): a pressure DOF on a
+quadratic cell's mid-side or centre node, and the Q8 centre node's displacement, belong to
+no basis function and are held (:meth:`Operators.unused`).
+
+Q4/Q4 violates the inf-sup condition: an undrained load then gives a checkerboard pressure.
+Dohrmann and Bochev's polynomial pressure projection (2004) adds to the storage
+
+    S_stab = (tau) sum_cells [ sum_p V N_p N_p^T - m_c m_c^T / V_c ],   m_c = sum_p V N_p,
+
+(the L2 distance of the pressure from its cell mean) with tau = STAB / E_c, which is
+consistent (zero on a cell-wise constant pressure) and needs no tuning to the mesh.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from ...model import assembly
+from ...model.soil import G_REF
+
+# tau E_c of the projection: measured on 1 x 40 Q4 columns (docs/method.md, "Implicit
+# consolidation"), the undrained pressure's overshoot falls below 1 % of q from 1 on.
+STAB = 4.0
+
+
+def per_point(soil, name: str, layer) -> np.ndarray:
+    """A soil property at each point: one value for one soil, else its layer's (``layer``
+    the points' layer indices from the surface down)."""
+    values = np.array([getattr(s, name) for s in soil.soils], dtype=float)
+    return values[np.asarray(layer, dtype=int)] if len(values) > 1 else \
+        np.full(len(layer), values[0])
+
+
+class Operators:
+    """J0 = [[K, -Q], [-Q^T, -S]], the flow H = [[0, 0], [0, H]] and the storage
+    M = [[0, 0], [Q^T, S]] as parallel AIJ matrices over the three-DOF DMDA ``da``,
+    assembled from each rank's own points (ADD_VALUES), and the points' interpolation.
+
+    ``grid`` the background grid, ``x0`` (np, 2) the points' positions (m), ``volume`` (np,)
+    (m3), ``layer`` (np,) their layers, ``soil`` a Soil or a Ground, ``stabilize`` whether
+    to add the pressure projection. The caller destroys it."""
+
+    def __init__(self, grid, x0, volume, layer, soil, stabilize: bool):
+        self.grid = grid
+        self.da = grid.da.duplicate(dof=3)
+        self.u = assembly.interpolation(grid, x0)
+        self.p = self.u if grid.element == "q4" else \
+            assembly.interpolation(grid, x0, corner=True)
+        nen = self.u.N.shape[1]
+        nodes = self.u.nodes
+        self.dofs = np.concatenate([np.stack([3 * nodes, 3 * nodes + 1], -1).reshape(
+            len(nodes), 2 * nen), 3 * nodes + 2], axis=1).astype(PETSc.IntType)
+        E_c = per_point(soil, "constrained_modulus", layer)
+        self.E_c = float(np.max(E_c)) if len(E_c) else 1.0
+        D = soil.soils[0].elasticity() if len(soil.soils) == 1 else \
+            np.stack([s.elasticity() for s in soil.soils])[np.asarray(layer, dtype=int)]
+        self.D = D
+        self.B = assembly.strain_matrix(self.u.dNdx)
+        K = assembly.stiffness_blocks(self.u, D, volume)
+        div = self.B[:, 0] + self.B[:, 1]                              # (np, 2 nen)
+        Np, dNp = self.p.N, self.p.dNdx
+        Q = volume[:, None, None] * div[:, :, None] * Np[:, None, :]
+        NN = volume[:, None, None] * Np[:, :, None] * Np[:, None, :]
+        storage = per_point(soil, "porosity", layer) / per_point(soil, "K_l", layer)
+        S = storage[:, None, None] * NN
+        tau = STAB / E_c if stabilize else None
+        if stabilize:
+            S = S + tau[:, None, None] * NN
+        mobility = per_point(soil, "k", layer) / (per_point(soil, "rho_l", layer) * G_REF)
+        Hb = (volume * mobility)[:, None, None] * np.einsum("pad,pbd->pab", dNp, dNp)
+        n2 = 2 * nen
+        zeros = np.zeros((len(volume), 3 * nen, 3 * nen))
+        J0 = zeros.copy()
+        J0[:, :n2, :n2] = K
+        J0[:, :n2, n2:] = -Q
+        J0[:, n2:, :n2] = -Q.transpose(0, 2, 1)
+        J0[:, n2:, n2:] = -S
+        Mb = zeros.copy()
+        Mb[:, n2:, :n2] = Q.transpose(0, 2, 1)
+        Mb[:, n2:, n2:] = S
+        Hf = zeros
+        Hf[:, n2:, n2:] = Hb
+        del K, Q, NN, S, Hb
+        self.J0 = self._assemble(J0)
+        self.M = self._assemble(Mb)
+        self.H = self._assemble(Hf)
+        if stabilize:
+            self._cell_means(volume, tau)
+
+    def _assemble(self, blocks) -> PETSc.Mat:
+        A = self.da.createMat()
+        A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+        if len(blocks):
+            A.setValuesLocalRCV(self.dofs, self.dofs, np.ascontiguousarray(blocks),
+                                addv=PETSc.InsertMode.ADD_VALUES)
+        A.assemble()
+        return A
+
+    def _cell_means(self, volume, tau):
+        """The projection's cell part, - tau m_c m_c^T / V_c, added to -S in J0 (with the
+        opposite sign) and to S in M; every cell's points are on the rank that owns it."""
+        cx, cy = self.u.cells
+        cell = cy * self.grid.cells[0] + cx
+        cells, first, inverse = np.unique(cell, return_index=True, return_inverse=True)
+        nen = self.p.N.shape[1]
+        m = np.zeros((len(cells), nen))
+        np.add.at(m, inverse, volume[:, None] * self.p.N)
+        V = np.bincount(inverse, weights=volume, minlength=len(cells))
+        t = np.bincount(inverse, weights=volume * tau, minlength=len(cells)) / V
+        block = (t / V)[:, None, None] * m[:, :, None] * m[:, None, :]
+        pd = np.ascontiguousarray(self.dofs[first, 2 * nen:])
+        for A, sign in ((self.J0, 1.0), (self.M, -1.0)):
+            if len(cells):
+                A.setValuesLocalRCV(pd, pd, np.ascontiguousarray(sign * block),
+                                    addv=PETSc.InsertMode.ADD_VALUES)
+            A.assemble()
+
+    def owned_nodes(self):
+        """Lattice indices (i, j) of this rank's owned nodes, in global Vec order."""
+        g = self.grid
+        I, J = np.meshgrid(np.arange(g.xs, g.xe), np.arange(g.ys, g.ye), indexing="xy")
+        return I.ravel(), J.ravel()
+
+    def mask(self, bcs, drained=()) -> np.ndarray:
+        """Boolean mask (n_owned, 3) of the held DOFs: the supports ``bcs`` ({side:
+        components}), the pressure on the ``drained`` sides, and the unused DOFs."""
+        g = self.grid
+        held = self.unused()
+        held[:, :2] |= g.constrained_mask(bcs).reshape(-1, 2)
+        I, J = self.owned_nodes()
+        sides = {"left": I == 0, "right": I == g.nodes[0] - 1,
+                 "bottom": J == 0, "top": J == g.nodes[1] - 1}
+        for side in drained:
+            held[sides[side], 2] = True
+        return held
+
+    def unused(self) -> np.ndarray:
+        """(n_owned, 3): DOFs no basis function has (see the module docstring)."""
+        I, J = self.owned_nodes()
+        order = self.grid.order
+        held = np.zeros((len(I), 3), dtype=bool)
+        held[:, 2] = (I % order != 0) | (J % order != 0)
+        if self.grid.element == "q8":
+            held[(I % 2 == 1) & (J % 2 == 1), :2] = True
+        return held
+
+    def rows(self, mask) -> np.ndarray:
+        """Global row numbers of a (n_owned, 3) mask's True entries."""
+        start = self.J0.getOwnershipRange()[0]
+        return (start + np.flatnonzero(mask.ravel())).astype(PETSc.IntType)
+
+    def destroy(self):
+        for obj in (self.J0, self.M, self.H, self.da):
+            obj.destroy()

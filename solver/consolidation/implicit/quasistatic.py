@@ -1,0 +1,323 @@
+"""Implicit quasi-static u-p consolidation on the material points (``-mpm_scheme implicit``).
+
+The points stay where they are (small strain, the explicit scheme's default kinematics) and
+carry the integration (:mod:`.operators`). The unknowns are the nodal displacement u and the
+excess pore pressure over hydrostatic p_e = p - rho_l g (H - y) (Pa): Darcy's law with the
+water's weight then reads in p_e alone, and the drained sides hold p_e = 0 (the water
+table at the surface). With y = (u, p_e), F(t) the load vector and c = gamma h / 2:
+
+    undrained, t = 0+:  J(0) y = F(0+) - M y_0          (the drained sides' p left free)
+    TR-BDF2 step h:     J(c) y_tr = F(t + gamma h) - M y + c H y
+                        J(c) y'   = F(t + h) - M (y_tr / (gamma (2 - gamma))
+                                               - (1 - gamma)^2 y / (gamma (2 - gamma)))
+
+with J(c) = J0 - c H, gamma = 2 - sqrt(2): one-step, second order, L-stable; both stages
+share J(c), so a block of equal steps costs one LU factorization. The load vector is
+F = q(t) F_q + F_g: the top load and, under gravity, the mixture's weight, the water
+outside the drained sides, Q p_h (the hydrostatic part of the total stress) and minus the
+points' initial effective stress (the geostatic start: then F_g vanishes up to the points'
+quadrature of the state at rest, as in the explicit step). A fresh deposit starts from
+p = 0, i.e. p_e = -p_h, and the undrained start gives the share of its weight the water
+takes (analytic.undrained_excess).
+
+Linear algebra: KSP preonly with LU by MUMPS under the options prefix ``mpm_``
+(``-mpm_ksp_type``, ``-mpm_pc_type``, ``-mpm_pc_factor_mat_solver_type``,
+``-mpm_mat_mumps_icntl_*`` ...), on the symmetrically scaled system (the displacement rows
+by 1 / sqrt(E_c), the pressures by sqrt(E_c) / h): both blocks O(1). Log events
+MPMImplicitAssembly, MPMImplicitFactor and MPMImplicitSolve.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from petsc4py import PETSc
+
+from ...common.errors import NumericalError, check_converged
+from ...model.scene import top_forces, water_forces
+from ...model.soil import G_REF
+from ...references.biot import GAMMA, schedule as graded
+from .operators import Operators, per_point
+
+_BDF_NEW = 1 / (GAMMA * (2 - GAMMA))
+_BDF_OLD = (1 - GAMMA) ** 2 / (GAMMA * (2 - GAMMA))
+STEPS = 8      # steps per doubling of time (-mpm_implicit_steps)
+_EVENTS = {}
+
+
+def _event(name: str):
+    ev = _EVENTS.get(name)
+    if ev is None:
+        ev = _EVENTS[name] = PETSc.Log.Event(name)
+    return ev
+
+
+def step_ends(times, steps: int) -> np.ndarray:
+    """The step ends (s) through the ``times`` asked (s, > 0): ``steps`` per doubling, graded
+    from the load (:func:`solver.references.biot.schedule`, the FE reference's grading),
+    the first block ending at t_1 / steps^4 (t_1 the first time asked)."""
+    asked = np.unique(np.asarray(times, dtype=float))
+    asked = asked[asked > 0]
+    return graded(asked, steps, asked[0] / steps ** 4)
+
+
+class QuasiStatic:
+    """The implicit scheme's state and solver on one grid; the time loop calls
+    :meth:`start` once (t = 0+) and :meth:`step` per step; both write the points' fields.
+    ``stabilize``: the pressure projection (:mod:`.operators`). The caller destroys it."""
+
+    def __init__(self, grid, points, soil, body, loading, stabilize: bool):
+        self.grid, self.points, self.loading = grid, points, loading
+        self.comm = grid.comm
+        self.mpi = self.comm.tompi4py()
+        x0, volume = points.get("x0", "volume")
+        layer = points.get("layer").ravel() if "layer" in points.layout else \
+            np.zeros(len(volume), dtype=int)
+        self.x0 = x0.copy()
+        with _event("MPMImplicitAssembly"):
+            self.ops = ops = Operators(grid, x0, volume, layer, soil, stabilize)
+        self.nen = ops.u.N.shape[1]
+        g, H = loading.gravity, body.height
+        self.gamma_h = soil.soils[0].rho_l * g      # the hydrostatic gradient (Pa/m)
+        self.p_h = self.gamma_h * (H - x0[:, 1])
+        self.mobility = per_point(soil, "k", layer) / (soil.soils[0].rho_l * G_REF)
+        self.porosity = per_point(soil, "porosity", layer)
+        self.sigma0 = points.get("stress").copy()
+        self.y, self.F_q, self.F_g = (ops.da.createGlobalVec() for _ in range(3))
+        self.loc = ops.da.createLocalVec()
+        self.work = self.y.duplicate()
+        self._loads(body, soil, volume)
+        self.held_undrained = ops.rows(ops.mask(body.supports))
+        self.held = ops.rows(ops.mask(body.supports, body.drained))
+        self.d = self.y.duplicate()
+        d = self.d.getArray().reshape(-1, 3)
+        d[:, :2] = 1 / math.sqrt(ops.E_c)
+        d[:, 2] = math.sqrt(ops.E_c) / min(grid.h)
+        self.ksp = self.J = None
+        self.key = self.h_used = None
+        self.factorizations, self.solves, self.steps = 0, 0, 0
+        self.solve_seconds = self.factor_seconds = 0.0
+        self.u_prev = np.zeros((len(volume), 2))
+        if not loading.geostatic and g > 0:
+            self._set_excess_nodes(-soil.soils[0].rho_l * g)
+
+    # -- set-up ---------------------------------------------------------------------------
+    def _set_excess_nodes(self, slope):
+        """p_e = slope (H - y) at the corner nodes (Pa): a fresh deposit's -p_h."""
+        g, ops = self.grid, self.ops
+        I, J = ops.owned_nodes()
+        H = g.size[1]
+        y = J * g.h[1] / g.order
+        arr = self.y.getArray().reshape(-1, 3)
+        arr[:, 2] = np.where(ops.unused()[:, 2], 0.0, slope * (H - y))
+
+    def _loads(self, body, soil, volume):
+        """F_q (the scene's load q on the top) and F_g (gravity's, see the module
+        docstring), global Vecs (N per m depth)."""
+        g, ops, loading = self.grid, self.ops, self.loading
+        I, J = ops.owned_nodes()
+        top = J == g.nodes[1] - 1
+        fq = self.F_q.getArray().reshape(-1, 3)
+        fq[top, 1] = -top_forces(g, loading)[I[top]]
+        self.loc.zeroEntries()
+        if loading.gravity > 0:
+            loc = self.loc.getArray().reshape(-1, 3)
+            u, B, n2 = ops.u, ops.B, 2 * self.nen
+            rho = per_point(soil, "density", self._layer())
+            weight = -(volume * rho * loading.gravity)[:, None] * u.N
+            np.add.at(loc[:, 1], u.nodes, weight)
+            # Q p_h - int B^T sigma'_0: the hydrostatic water and the initial effective stress.
+            total = self.sigma0.copy()
+            total[:, :2] -= self.p_h[:, None]
+            f = -volume[:, None] * np.einsum("pki,pk->pi", B, total)
+            np.add.at(loc[:, 0], u.nodes, f[:, 0:n2:2])
+            np.add.at(loc[:, 1], u.nodes, f[:, 1:n2:2])
+        self.F_g.zeroEntries()
+        ops.da.localToGlobal(self.loc, self.F_g, addv=PETSc.InsertMode.ADD_VALUES)
+        if loading.gravity > 0:
+            water = water_forces(g, body.drained, soil.soils[0].rho_l * loading.gravity)
+            fg = self.F_g.getArray().reshape(-1, 3)
+            fg[:, :2] += water[J, I]
+
+    def _layer(self):
+        return self.points.get("layer").ravel().astype(int) if "layer" in self.points.layout \
+            else np.zeros(self.points.n_local, dtype=int)
+
+    # -- linear algebra ---------------------------------------------------------------------
+    def _factor(self, c, held):
+        self._release()
+        t0 = time.perf_counter()
+        with _event("MPMImplicitFactor"):
+            J = self.ops.J0.duplicate(copy=True)
+            if c:
+                J.axpy(-c, self.ops.H, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            J.diagonalScale(self.d, self.d)
+            J.zeroRowsColumns(held, diag=1.0)
+            ksp = PETSc.KSP().create(self.comm)
+            ksp.setOperators(J)
+            ksp.setType(PETSc.KSP.Type.PREONLY)
+            pc = ksp.getPC()
+            pc.setType(PETSc.PC.Type.LU)
+            pc.setFactorSolverType("mumps")
+            ksp.setOptionsPrefix("mpm_")
+            ksp.setFromOptions()
+            try:
+                ksp.setUp()
+            except PETSc.Error as exc:
+                raise NumericalError(f"implicit scheme: the factorization failed ({exc})") \
+                    from None
+        self.J, self.ksp = J, ksp
+        self.factorizations += 1
+        self.factor_seconds += time.perf_counter() - t0
+
+    def _solve(self, c, held, rhs):
+        """y with J(c) y = rhs on the free rows, 0 on ``held`` (rhs is overwritten)."""
+        key = (c, held is self.held)
+        if key != self.key:
+            self._factor(c, held)
+            self.key = key
+        t0 = time.perf_counter()
+        with _event("MPMImplicitSolve"):
+            rhs.pointwiseMult(rhs, self.d)
+            rhs.setValues(held, np.zeros(len(held)))
+            rhs.assemble()
+            self.ksp.solve(rhs, self.work)
+            check_converged(self.ksp, "implicit scheme: the step's solve (options "
+                                      "-mpm_ksp_*, -mpm_pc_*)")
+            self.work.pointwiseMult(self.work, self.d)
+        self.solves += 1
+        self.solve_seconds += time.perf_counter() - t0
+        return self.work
+
+    def _load(self, t):
+        """F(t) into a new Vec."""
+        f = self.F_g.copy()
+        f.axpy(self.loading.factor(t), self.F_q)
+        return f
+
+    def _rhs(self, t, y_store, c=0.0, y_flow=None):
+        """F(t) - M y_store + c H y_flow."""
+        r = self._load(t)
+        m = self.y.duplicate()
+        self.ops.M.mult(y_store, m)
+        r.axpy(-1.0, m)
+        if c:
+            self.ops.H.mult(y_flow, m)
+            r.axpy(c, m)
+        m.destroy()
+        return r
+
+    # -- the scheme ---------------------------------------------------------------------------
+    def start(self):
+        """The undrained state at t = 0+ (water has not moved; the drained sides' p free)."""
+        rhs = self._rhs(0.0, self.y)
+        self.key = None
+        self._solve(0.0, self.held_undrained, rhs).copy(self.y)
+        rhs.destroy()
+        self.to_points(None)
+
+    def step(self, t0: float, t1: float):
+        """One TR-BDF2 step from t0 to t1 (s)."""
+        h = t1 - t0
+        # Steps of one graded block differ in their last bits: keep them on one factorization.
+        if self.h_used is None or abs(h - self.h_used) > 1e-9 * h:
+            self.h_used = h
+        c = GAMMA * self.h_used / 2
+        rhs = self._rhs(t0 + GAMMA * h, self.y, c, self.y)
+        y_tr = self._solve(c, self.held, rhs).copy()
+        rhs.destroy()
+        mix = y_tr.copy()
+        mix.scale(_BDF_NEW)
+        mix.axpy(-_BDF_OLD, self.y)
+        rhs = self._rhs(t1, mix)
+        self._solve(c, self.held, rhs).copy(self.y)
+        for v in (rhs, mix, y_tr):
+            v.destroy()
+        self.steps += 1
+        self.to_points(h)
+
+    def to_points(self, h):
+        """The points' displacement, velocities (over the step h, s; None: zero), effective
+        stress, pore pressure, volume ratio and pressure gradient from the nodal state."""
+        ops, n2 = self.ops, 2 * self.nen
+        ops.da.globalToLocal(self.y, self.loc)
+        arr = self.loc.getArray()
+        ue, pe = arr[ops.dofs[:, :n2]], arr[ops.dofs[:, n2:]]
+        N = ops.u.N
+        u = np.stack([np.sum(N * ue[:, 0::2], 1), np.sum(N * ue[:, 1::2], 1)], -1)
+        eps = np.einsum("pki,pi->pk", ops.B, ue)
+        D = ops.D
+        sig = np.einsum("kl,pl->pk" if np.ndim(D) == 2 else "pkl,pl->pk", D, eps)
+        grad = np.einsum("pad,pa->pd", ops.p.dNdx, pe)
+        vs = np.zeros_like(u) if not h else (u - self.u_prev) / h
+        self.u_prev = u
+        with self.points.fields("x", "vs", "vl", "stress", "p", "J") as (x, v_s, v_l, st, pp,
+                                                                         Jv):
+            x[:] = self.x0 + u
+            v_s[:] = vs
+            v_l[:] = vs - (self.mobility / self.porosity)[:, None] * grad
+            st[:] = self.sigma0 + sig
+            pp[:] = self.p_h + np.sum(ops.p.N * pe, 1)
+            Jv[:] = 1 + eps[:, 0] + eps[:, 1]
+        if "gradp" in self.points.layout:
+            with self.points.fields("gradp") as gp:
+                gp[:] = grad
+                gp[:, 1] -= self.gamma_h      # grad p = grad p_e + grad p_h
+
+    def check(self, step: int, t: float, scale: float):
+        """NumericalError on every rank for a non-finite state."""
+        ok = bool(np.isfinite(self.y.norm()))
+        if not ok:
+            raise NumericalError(f"implicit scheme: non-finite state at step {step}, "
+                                 f"t = {t:.6g} s")
+
+    def migrate_if_needed(self, flags=(0,)):
+        """The points keep their cells (small strain): only the flags' maxima over the
+        ranks, as the explicit step's (collective)."""
+        if self.comm.getSize() == 1:
+            return flags
+        from mpi4py import MPI
+
+        out = np.array(flags, dtype=np.int64)
+        self.mpi.Allreduce(MPI.IN_PLACE, out, op=MPI.MAX)
+        return out
+
+    # -- checkpoints --------------------------------------------------------------------------
+    def state(self) -> list:
+        """The nodal state in natural order (every rank; a checkpoint's)."""
+        nat = self.ops.da.createNaturalVec()
+        self.ops.da.globalToNatural(self.y, nat)
+        scatter, full = PETSc.Scatter.toAll(nat)
+        scatter.scatter(nat, full, PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+        out = full.getArray().tolist()
+        for obj in (scatter, full, nat):
+            obj.destroy()
+        return out
+
+    def restore(self, values):
+        """The nodal state of :meth:`state` (natural order), and the points' fields."""
+        nat = self.ops.da.createNaturalVec()
+        lo, hi = nat.getOwnershipRange()
+        nat.setArray(np.asarray(values, dtype=float)[lo:hi])
+        self.ops.da.naturalToGlobal(nat, self.y)
+        nat.destroy()
+        self.to_points(None)
+
+    def summary(self) -> dict:
+        return {"steps": self.steps, "factorizations": self.factorizations,
+                "solves": self.solves, "factor_seconds": self.factor_seconds,
+                "solve_seconds": self.solve_seconds}
+
+    def _release(self):
+        for obj in (self.ksp, self.J):
+            if obj is not None:
+                obj.destroy()
+        self.ksp = self.J = None
+
+    def destroy(self):
+        self._release()
+        for obj in (self.y, self.F_q, self.F_g, self.loc, self.work, self.d):
+            obj.destroy()
+        self.ops.destroy()
