@@ -38,6 +38,8 @@ from .explicit import inertia, timestep
 from .explicit.inertia import MAX_STEPS
 from .explicit.scheme import Scheme, lateral_drainage_notes
 from .explicit.twophase import TwoPhase, point_fields
+from .implicit import choice
+from .implicit.quasistatic import QuasiStatic, step_ends
 from .plan import Limits, Outputs, Plan, References, Schedule
 
 
@@ -90,7 +92,9 @@ def _validate(p) -> tuple:
     if "none" in p.drained and len(p.drained) > 1:
         raise InputError(f"-mpm_drained {','.join(p.drained)}: none means no drained side; "
                          "give it alone")
-    notes += lateral_drainage_notes(p.element, p.drained, p.pressure_projection)
+    choice.check(p)
+    if p.scheme != "implicit":
+        notes += lateral_drainage_notes(p.element, p.drained, p.pressure_projection)
     fe_reference.check_cells(p.fe_cells, p.layers, H)
     if p.work_precision and math.isnan(p.target_error):
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
@@ -155,7 +159,10 @@ def _run(setup, comm, ctx) -> int:
     handler."""
     plan, grid, points, state, t_wall = setup
     signals.stage("set-up: the model and the summary")
-    model = TwoPhase(grid, points, plan.soil, plan.body, plan.loading, plan.scheme)
+    if plan.method == "implicit":
+        model = QuasiStatic(grid, points, plan.soil, plan.body, plan.loading, plan.stabilize)
+    else:
+        model = TwoPhase(grid, points, plan.soil, plan.body, plan.loading, plan.scheme)
     ctx.owned.append(model)
     reports = reporting.Reporting(plan, grid, points, state, comm)
     # A blow-up overflows before the periodic check names it in one line; NumPy's warnings
@@ -177,6 +184,8 @@ def _run(setup, comm, ctx) -> int:
     with signals.deferred("stepping") as stop:
         ctx.phase = "stepping"
         pace = _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall)
+    if plan.method == "implicit":
+        summary["implicit"] = model.summary()
     ctx.clock.mark("stepping")
     np.seterr(**fp)
     signals.stage("reporting")
@@ -215,11 +224,20 @@ def _set_up(p, comm, ctx) -> tuple:
         checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
                                  inertia.slowest_period(comm, body, soil, loading))
+    if restart is None:
+        method, why = choice.choose(p, soil, body, scheme, refs)
+    else:
+        method = restart[2].get("method", "explicit")
+        why = f"Scheme: {method} (the checkpoint's)"
+    PETSc.Sys.Print(why, comm=comm)
+    for note in choice.notes(p, method):
+        PETSc.Sys.Print(f"Note: {note}", comm=comm)
     fields = point_fields(scheme, ground.count > 1)
     if restart is not None:
         checkpoint.check_fields(p.restart, restart[1], fields)
     memory.check(body)             # a model that does not fit says so first
-    inertia.check_feasible(p, scheme, soil, body)
+    if method == "explicit":
+        inertia.check_feasible(p, scheme, soil, body)
     t_wall = time.perf_counter()
     signals.stage("set-up: the body")
     grid, points = scene.two_phase_body(comm, body, soil, fields)
@@ -228,7 +246,7 @@ def _set_up(p, comm, ctx) -> tuple:
         state = RunState.from_dict(restart[2], scheme.mass_scaling)
         scheme = scheme.with_mass_scaling(state.mass_scaling)
     else:
-        state = RunState(mass_scaling=scheme.mass_scaling)
+        state = RunState(mass_scaling=scheme.mass_scaling, method=method)
     monitor = _place_monitor(points, body, loading, p.monitor, p.monitor_height,
                              comm.tompi4py())
     if restart is not None:
@@ -236,21 +254,22 @@ def _set_up(p, comm, ctx) -> tuple:
                            "x0" if scheme.kinematics == "small" else "x")
     elif loading.geostatic:
         scene.geostatic_state(points, body, soil, loading)
-    limits, patch = _critical_steps(comm, body, soil, scheme, grid.h, p.stability_analysis,
-                                    (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps))
-    given = None if math.isnan(p.dt) else p.dt
-    state.dt = state.dt if restart is not None else _choose_dt(limits, given, p.dt_safety)
-    reporting.print_limits(comm, limits, state.dt, soil, body, scheme, patch,
-                  "given by -mpm_dt" if given else f"{p.dt_safety} x {limits.governing}")
-    limits = _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
-                       p.allow_unstable)
+    if method == "explicit":
+        limits = _explicit_limits(p, comm, body, soil, scheme, grid.h, state, restart)
+    else:
+        limits = Limits({}, "", (), math.nan, inertia.regime(
+            soil, body.height, min(p.Tv_report), scheme.damping, scheme.fast_damping, 1.0,
+            scheme.wave_period))
     signals.stage("set-up: the step counts")
     if not refs.available and not loading.self_weight:
         signals.stage("set-up: the static references")
         refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))
-    schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
-                        p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
-                        p.checkpoint_seconds, p.progress)
+    if method == "explicit":
+        schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
+                            p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
+                            p.checkpoint_seconds, p.progress)
+    else:
+        schedule = _implicit_schedule(p, refs, state)
     signals.stage("set-up: the FE reference")
     refs, probes = fe_reference.attach(comm, refs, (soil, body, loading), points, schedule,
                                        monitor, p.fe_reference, p.fe_cells)
@@ -261,9 +280,46 @@ def _set_up(p, comm, ctx) -> tuple:
                 signature=signature, scene=workprecision.scene_signature(p),
                 provenance=options, restart=p.restart,
                 resumed_id=restart[3] if restart else None, goal=goal,
-                target_error=p.target_error, monitor_x=monitor[0], probes=probes)
+                target_error=p.target_error, monitor_x=monitor[0], probes=probes,
+                method=method, stabilize=p.pressure_stabilization != "none")
     _print_plan(comm, plan, points.n_global)
     return plan, grid, points, state, t_wall
+
+
+def _explicit_limits(p, comm, body, soil, scheme, h, state, restart) -> Limits:
+    """The explicit step's critical time steps, its dt (into ``state``) and the inertia
+    regime, printed; InputError for a dt far beyond the stability limit."""
+    limits, patch = _critical_steps(comm, body, soil, scheme, h, p.stability_analysis,
+                                    (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps))
+    given = None if math.isnan(p.dt) else p.dt
+    state.dt = state.dt if restart is not None else _choose_dt(limits, given, p.dt_safety)
+    reporting.print_limits(comm, limits, state.dt, soil, body, scheme, patch,
+                           "given by -mpm_dt" if given else
+                           f"{p.dt_safety} x {limits.governing}")
+    return _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
+                     p.allow_unstable)
+
+
+def _implicit_schedule(p, refs, state) -> Schedule:
+    """The implicit scheme's graded steps through the report and isochrone times to T_v =
+    ``-mpm_Tv_end``; a restart keeps the steps it took (``state.times``) and grades on from
+    its last, so that the same options continue exactly."""
+    named = {tv: refs.time(tv) for tv in sorted(set(reporting.ISOCHRONES) | set(p.Tv_report))
+             if tv <= p.Tv_end + 1e-12}
+    named[p.Tv_end] = refs.time(p.Tv_end)
+    ends = step_ends(list(named.values()), p.implicit_steps)
+    done = list(state.times[:state.step])
+    if done:
+        ends = np.r_[done, ends[ends > done[-1] * (1 + 1e-12)]]
+    ends = np.asarray(ends, dtype=float)
+    state.times = ends.tolist()
+    at = {tv: int(np.argmin(np.abs(ends - t))) + 1 for tv, t in named.items()}
+    report = {at[tv]: tv for tv in p.Tv_report if tv in at}
+    iso = {at[tv]: tv for tv in named if tv in set(reporting.ISOCHRONES) | set(p.Tv_report)}
+    state.dt = float(ends[0])
+    return Schedule(math.nan, len(ends), report, iso, p.Tv_end, tuple(p.Tv_report),
+                    p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress,
+                    times=tuple(ends.tolist()), sample_every=1)
 
 
 def _target(p, comm) -> tuple:
@@ -395,14 +451,8 @@ def _print_plan(comm, plan, n_points):
     PETSc.Sys.Print(f"Consolidation: {body.element.upper()}, {body.cells[0]} x "
                     f"{body.cells[1]} cells, {n_points} material points, {comm.getSize()} "
                     f"rank(s); c_v = {refs.c_v:.4g} m2/s, T_v = {schedule.Tv_end} at t = "
-                    f"{t_end:.4g} s: {schedule.nsteps} steps of {schedule.dt:.4g} s; monitor "
-                    f"{reporting.monitor_words(plan)}\n"
-                    f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
-                    f"liquid basis {scheme.liquid_basis}, pressure projection "
-                    f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
-                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})"
-                    + (f", FLIP fraction {scheme.flip:g}" if scheme.flip != 1 else ""),
-                    comm=comm)
+                    f"{t_end:.4g} s: {_steps_words(plan)}; monitor "
+                    f"{reporting.monitor_words(plan)}\n" + _scheme_words(plan), comm=comm)
     if body.element != "q4" and body.ppc < 3:
         # Measured on 1 x 20 cells (docs/studies.md): Q9 with 2 x 2 points was 10 % off
         # Terzaghi (0.4 % with 3 x 3); Q8's stable time step shrank a hundredfold.
@@ -411,10 +461,34 @@ def _print_plan(comm, plan, n_points):
                         comm=comm)
 
 
+def _steps_words(plan) -> str:
+    """'N steps of DT s' (explicit) or 'N steps graded from the load' (implicit)."""
+    sched = plan.schedule
+    if plan.method == "implicit":
+        return f"{sched.nsteps} steps graded from the load, the first {sched.time(1):.3g} s"
+    return f"{sched.nsteps} steps of {sched.dt:.4g} s"
+
+
+def _scheme_words(plan) -> str:
+    """The banner's line on the time scheme."""
+    scheme, body = plan.scheme, plan.body
+    if plan.method == "implicit":
+        pair = "Q4/Q4" if body.element == "q4" else f"{body.element.upper()}/Q4 Taylor-Hood"
+        return (f"Scheme: implicit quasi-static u-p, {pair}"
+                + (", pressure projection (Dohrmann-Bochev)" if plan.stabilize else "")
+                + ", TR-BDF2, LU (MUMPS)")
+    return (f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
+                    f"liquid basis {scheme.liquid_basis}, pressure projection "
+                    f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
+                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})"
+            + (f", FLIP fraction {scheme.flip:g}" if scheme.flip != 1 else ""))
+
+
 def _summary(plan, points, state, comm) -> dict:
     """The summary before the first step (collective: the provenance)."""
     body, scheme, limits, refs = plan.body, plan.scheme, plan.limits, plan.refs
-    summary = {"analysis": "consolidation", "ranks": comm.getSize(), "element": body.element,
+    summary = {"analysis": "consolidation", "scheme": plan.method, "ranks": comm.getSize(),
+               "element": body.element,
                "cells": list(body.cells), "ppc": body.ppc, "n_points": points.n_global,
                "steps": 0, "dt": state.dt, "wall_seconds": 0.0, "stable": True,
                "dt_critical": limits.steps, "dt_governing": limits.governing,
@@ -449,6 +523,16 @@ def _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall):
     the summary so far (rank 0) and is raised on."""
     sched, scheme, loading = plan.schedule, plan.scheme, plan.loading
     dt, nsteps, points = sched.dt, sched.nsteps, reports.points
+    implicit = plan.method == "implicit"
+    if implicit:
+        advance = lambda k: model.step(sched.time(k - 1), sched.time(k))  # noqa: E731
+        if state.step == 0:
+            model.start()              # the undrained state at t = 0+
+        else:
+            model.restore(state.nodal)
+    else:
+        advance = lambda k: model.step(dt, loading.factor(sched.time(k - 1)),  # noqa: E731
+                                       scheme.damping, scheme.flip)
     scale = max(plan.refs.q, plan.soil.density * loading.gravity * plan.body.height, 1.0)
     ckpt_path = ctx.ckpt_path
     first = state.step + 1
@@ -459,17 +543,17 @@ def _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall):
     pace = workprecision.Pace(first, nsteps, t_steps) if plan.goal else None
     try:
         # The stage is popped however the loop ends (the handlers in _run run after it).
-        with PETSc.Log.Stage("Explicit steps"):
+        with PETSc.Log.Stage("Implicit steps" if implicit else "Explicit steps"):
             for k in range(first, nsteps + 1):
-                t = k * dt
+                t = sched.time(k)
                 ctx.whole = None         # mid-step: points and records disagree until the end
-                model.step(dt, loading.factor((k - 1) * dt), scheme.damping, scheme.flip)
+                advance(k)
                 due = int(sched.checkpoint_seconds > 0 and comm.getRank() == 0
                           and time.perf_counter() - last_ckpt > sched.checkpoint_seconds)
                 signal_seen, due = model.migrate_if_needed((stop.seen, due))
                 if k % 50 == 0 or k == nsteps or k in sched.iso_steps:
                     model.check(k, t, scale)
-                if k % 10 == 0 or k in sched.iso_steps:
+                if k % sched.sample_every == 0 or k in sched.iso_steps:
                     reports.sample(t)
                 if k in sched.iso_steps:
                     reports.isochrone(k, t)
@@ -479,6 +563,8 @@ def _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall):
                 state.step = k           # the records are those of step k from here on
                 if (signal_seen or due
                         or (sched.checkpoint_every and k % sched.checkpoint_every == 0)):
+                    if implicit:
+                        state.nodal = model.state()
                     checkpoint.write(ckpt_path, comm, points, state.to_dict(), plan.signature,
                                      plan.run)
                     last_ckpt = time.perf_counter()
@@ -495,6 +581,8 @@ def _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall):
                     PETSc.Sys.Print(_progress(plan, state, k, last_print, t_steps, first,
                                               t_wall), comm=comm)
                 ctx.whole = k
+        if implicit:
+            state.nodal = model.state()    # for a checkpoint after a failure in the reporting
     except (NumericalError, Interrupted) as exc:
         for undo in ctx.cleanup:       # NumPy's FP settings
             undo()
@@ -511,7 +599,7 @@ def _time_loop(plan, model, reports, state, stop, comm, ctx, t_wall):
 
 def _progress(plan, state, k, now, t_steps, first, t_wall) -> str:
     """The progress line at step ``k``, ``now`` (perf_counter)."""
-    nsteps, history, t = plan.schedule.nsteps, state.history, k * plan.schedule.dt
+    nsteps, history, t = plan.schedule.nsteps, state.history, plan.schedule.time(k)
     return (f"  step {k}/{nsteps} ({100 * k / nsteps:.0f} %), "
             f"t = {t:.4g} s, T_v = {plan.refs.time_factor(t):.4f}, p/q(monitor) = "
             f"{history[-1][2] if history else float('nan'):.4f}, "
@@ -527,6 +615,8 @@ def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
     t_wall, phases = clocks
     records, summary_path = state.reports, plan.outputs.summary
     summary["steps"] = plan.schedule.nsteps
+    if "implicit" in summary:
+        _implicit_line(comm, summary["implicit"])
     summary["completed"] = True
     summary["wall_seconds"] = time.perf_counter() - t_wall
     summary["monitor"] = {"height": plan.monitor_height,
@@ -574,6 +664,14 @@ def _finish(plan, reports, state, summary, pace, comm, clocks) -> int:
     PETSc.Sys.Print(output.results_line(plan.outputs.folder, files), comm=comm)
     PETSc.Sys.Print(f"{phases.line()}; summary {summary_path}", comm=comm)
     return 0
+
+
+def _implicit_line(comm, counts):
+    """The implicit scheme's steps, factorizations and solve time (the summary's
+    ``implicit`` block), printed."""
+    PETSc.Sys.Print(f"Implicit scheme: {counts['steps']} steps, {counts['factorizations']} LU "
+                    f"factorizations ({counts['factor_seconds']:.3g} s), {counts['solves']} "
+                    f"solves ({counts['solve_seconds']:.3g} s)", comm=comm)
 
 
 def _target_verdict(plan, summary, pace, comm):

@@ -208,13 +208,12 @@ def times(schedule, time_factor) -> tuple:
     (exactly the run's times, with the T_v the run names them by) and DOUBLINGS halvings
     of time before the first, down to the run's first sample (10 steps): the steps biot's
     schedule takes anyway (T_v from ``time_factor(t)``)."""
-    dt = schedule.dt
     named = {**schedule.iso_steps, **schedule.report_steps}
     steps = sorted(k for k in named if k > 0)
-    first = steps[0] * dt
+    first = schedule.time(steps[0])
     before = first * 2.0 ** -np.arange(DOUBLINGS, 0, -1)
-    before = before[before >= 10 * dt]
-    return (np.r_[before, np.array(steps, dtype=float) * dt],
+    before = before[before >= schedule.time(schedule.sample_every)]
+    return (np.r_[before, [schedule.time(k) for k in steps]],
             np.r_[[time_factor(t) for t in before], [named[k] for k in steps]])
 
 

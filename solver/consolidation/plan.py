@@ -27,7 +27,9 @@ class Schedule:
     """The time stepping: ``dt`` (s), ``nsteps``, the end ``Tv_end`` and the report times
     ``Tv_report`` (T_v), and the steps at which the reports and the isochrones fall
     ({step: T_v}); the cadence of the field output, checkpoints (steps; 0: none) and
-    progress lines (s; 0: none)."""
+    progress lines (s; 0: none). The explicit step's steps are equal, step k ends at k dt;
+    the implicit scheme's are graded, step k ends at ``times[k - 1]`` (s), and its monitor
+    and settlement are sampled every step (``sample_every``)."""
 
     dt: float
     nsteps: int
@@ -39,11 +41,19 @@ class Schedule:
     checkpoint_every: int = 0
     checkpoint_seconds: float = 0.0
     progress: float = 10.0
+    times: tuple = ()
+    sample_every: int = 10
+
+    def time(self, k: int) -> float:
+        """The time (s) at the end of step k (0: the start)."""
+        if not self.times:
+            return k * self.dt
+        return self.times[k - 1] if k > 0 else 0.0
 
     @property
     def t_end(self) -> float:
         """The time (s) of the last step."""
-        return self.nsteps * self.dt
+        return self.time(self.nsteps)
 
 
 FORMS = ("classic", "consistent")     # incompressible water (c_v), compressible (c2)
@@ -252,7 +262,8 @@ class Plan:
     a checkpoint must match; ``scene`` the scene's signature for the work-precision data;
     ``provenance`` the options as the provenance records them; ``restart`` the checkpoint
     continued ('' for a fresh run) and ``resumed_id`` its run id; ``goal`` the target
-    error's pick or None and ``target_error`` (%) the target.
+    error's pick or None and ``target_error`` (%) the target; ``method`` the time scheme
+    (explicit, implicit) and ``stabilize`` the implicit scheme's pressure projection.
     """
 
     soil: Soil
@@ -274,6 +285,8 @@ class Plan:
     target_error: float = math.nan
     monitor_x: float = math.nan
     probes: object = None
+    method: str = "explicit"     # the time scheme: explicit or implicit
+    stabilize: bool = True       # the implicit scheme's pressure projection
 
 
 def axis(body: Body, loading: Loading) -> float:

@@ -53,7 +53,7 @@ class Reporting:
             self.state.series = self.series.entries
             step = self.state.step
             PETSc.Sys.Print(f"Restart from {plan.restart} at step {step} "
-                            f"(t = {step * plan.schedule.dt:.6g} s)", comm=comm)
+                            f"(t = {plan.schedule.time(step):.6g} s)", comm=comm)
 
     def sample(self, t):
         """The monitor's p / q and the surface settlement and mean p at time ``t``."""

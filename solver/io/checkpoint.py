@@ -53,6 +53,9 @@ class RunState:
     settlement: list = dataclasses.field(default_factory=list)  # (t, Tv, s (m), mean p (Pa))
     degree: list = dataclasses.field(default_factory=list)      # degree of consolidation
     troughs: list = dataclasses.field(default_factory=list)     # (Tv, x (m), s (m)), rank 0
+    method: str = "explicit"                                    # the time scheme
+    times: list = dataclasses.field(default_factory=list)       # implicit: the step ends (s)
+    nodal: list = dataclasses.field(default_factory=list)       # implicit: (u, p_e), natural
 
     def to_dict(self) -> dict:
         """The state as a checkpoint stores it (JSON after :func:`output._jsonable`)."""
@@ -68,7 +71,9 @@ class RunState:
                    history=[tuple(h) for h in st["history"]], reports=st["reports"],
                    profiles=[(a, b, np.array(c)) for a, b, c in st["profiles"]],
                    series=st["series"], settlement=[tuple(r) for r in st.get("settlement", [])],
-                   degree=st.get("degree", []), troughs=st.get("troughs", []))
+                   degree=st.get("degree", []), troughs=st.get("troughs", []),
+                   method=st.get("method", "explicit"), times=st.get("times", []),
+                   nodal=st.get("nodal", []))
 
 
 

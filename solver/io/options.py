@@ -172,6 +172,17 @@ SPEC = [
            "(no flow relative to the skeleton); left and right with q4 cells only; none: "
            "no drained side (undrained loading)",
            (CONSOLIDATION,), choices=("left", "right", "bottom", "top", "none")),
+    Option("scheme", "str", "auto", "time scheme: explicit (the dynamic v-w step of the "
+           "paper), implicit (quasi-static u-p Biot on the material points: TR-BDF2 on steps "
+           "graded from the load, LU by MUMPS; options -mpm_ksp_*, -mpm_pc_*, -mpm_mat_mumps_*) "
+           "or auto (implicit unless inertia shows at the first report or the explicit step is "
+           "estimated cheaper; it prints why)", (CONSOLIDATION,),
+           choices=("auto", "explicit", "implicit")),
+    Option("implicit_steps", "int", 8, "implicit scheme: time steps per doubling of time "
+           "(report times are step ends)", (CONSOLIDATION,), _at_least_one),
+    Option("pressure_stabilization", "str", "auto", "implicit scheme: ppp (Dohrmann and "
+           "Bochev's polynomial pressure projection, which keeps the undrained start free of "
+           "oscillations), none, auto (ppp)", (CONSOLIDATION,), choices=("auto", "ppp", "none")),
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
            "smallest critical time step", (CONSOLIDATION,), _positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
@@ -273,6 +284,15 @@ SPEC = [
 ]
 
 _BY_NAME = {o.name: o for o in SPEC}
+# PETSc's own options of the implicit scheme's linear solver (KSP prefix mpm_): PETSc reads
+# them (-mpm_ksp_type, -mpm_pc_factor_mat_solver_type, -mpm_mat_mumps_icntl_14, ...).
+LINEAR_SOLVER = ("ksp_", "pc_", "mat_")
+# The options that only the explicit step reads, and those only the implicit scheme reads.
+EXPLICIT_ONLY = ("dt", "dt_safety", "stability_analysis", "target_error", "work_precision",
+                 "allow_unstable", "damping", "bulk_viscosity", "fast_damping", "flip",
+                 "lumping", "kinematics", "pressure_projection", "liquid_basis", "drag",
+                 "mass_scaling")
+IMPLICIT_ONLY = ("implicit_steps", "pressure_stabilization")
 # Why a value that is not per layer is one: the pore fluid is the same in every layer.
 _FLUID = ("one value: the pore water is one fluid, the same in every layer (per layer: "
           + ", ".join(f"-{PREFIX}{o.name}" for o in SPEC if o.kind == "float_or_floats")
@@ -384,7 +404,8 @@ def read(spec=None, db=None, origins=None, base=None):
     db = PETSc.Options() if db is None else db
     # getString marks the option used (getAll does not): -options_left then reports only
     # the options nobody read. PETSc returns "" for an option given without a value.
-    given = {k[len(PREFIX):]: db.getString(k, "") for k in db.getAll() if k.startswith(PREFIX)}
+    given = {k[len(PREFIX):]: db.getString(k, "") for k in db.getAll() if k.startswith(PREFIX)
+             and not k[len(PREFIX):].startswith(LINEAR_SOLVER)}
     return _assemble(SPEC if spec is None else spec, given, origins or {}, base or {})
 
 
