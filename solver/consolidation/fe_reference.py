@@ -56,7 +56,8 @@ class Probes:
     ``axis``, the x of the column of points nearest it (``column``) and their heights
     (``heights``, ascending), the x of the top row's columns of points (``trough``), the
     height H of the body and the x of the static ends' surface (``ends_x``: the top
-    nodes', solver/references/static.py; () without them)."""
+    nodes', solver/references/static.py; () without them); ``rows`` the heights of every
+    row of points (ascending): with ``trough`` the lattice of every point's position."""
 
     monitor: tuple
     axis: float
@@ -65,6 +66,7 @@ class Probes:
     trough: tuple
     H: float
     ends_x: tuple = ()
+    rows: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -76,7 +78,8 @@ class FEReference:
     at the ``axis``, its ``mean`` under the load and the ``trough`` at the probes' x
     (nt, nx); ``ends`` {"undrained" (t = 0+), "drained" (t -> infinity): {"axis", "mean",
     "trough", "static_x" (at the probes' ends_x), "monitor" (Pa)}}. ``cells`` (NX, NY)
-    Q9/Q4 cells, ``steps`` and ``factorizations`` taken, ``seconds`` of wall time."""
+    Q9/Q4 cells, ``steps`` and ``factorizations`` taken, ``seconds`` of wall time; ``field``
+    the pore pressure (Pa) at every point's position, (nt, len(rows), len(trough))."""
 
     probes: Probes
     cells: tuple
@@ -92,6 +95,7 @@ class FEReference:
     mean: np.ndarray
     trough: np.ndarray
     ends: dict
+    field: np.ndarray = None
 
     def index(self, t: float) -> int:
         """The index of time ``t`` (s) in ``self.t``; KeyError if the FE was not asked it."""
@@ -198,9 +202,10 @@ def probes(points, body, axis: float, monitor: tuple, mpi, ends_x=()) -> Probes:
     column = float(top[np.flatnonzero(gap <= gap.min() + 1e-12 * W)[-1]])
     mine = x0[np.abs(x0[:, 0] - column) < 1e-9 * W, 1]
     heights = np.unique(np.concatenate(mpi.allgather(np.unique(mine))))
+    rows = np.unique(np.concatenate(mpi.allgather(np.unique(x0[:, 1]))))
     return Probes(tuple(float(v) for v in monitor), float(axis), column,
                   tuple(heights.tolist()), tuple(top.tolist()), H,
-                  tuple(float(x) for x in ends_x))
+                  tuple(float(x) for x in ends_x), tuple(rows.tolist()))
 
 
 def times(schedule, time_factor) -> tuple:
@@ -237,7 +242,9 @@ def _solve_here(fe_body, probes_: Probes, asked, fe_cells) -> FEReference:
     W, H = fe_body.size
     line = np.linspace(0.0, H, LINE)
     col = np.r_[pr.heights, line]
-    pts = np.vstack([[pr.monitor], np.column_stack([np.full(len(col), pr.column), col])])
+    X, Y = np.meshgrid(pr.trough, pr.rows, indexing="xy")
+    pts = np.vstack([[pr.monitor], np.column_stack([np.full(len(col), pr.column), col]),
+                     np.column_stack([X.ravel(), Y.ravel()])])
     gx, gw = _mean_points(fe_cells, W, fe_body.loaded)
     nt = len(pr.trough)
     ne = len(pr.ends_x)
@@ -263,7 +270,9 @@ def _solve_here(fe_body, probes_: Probes, asked, fe_cells) -> FEReference:
                       "static_x": st[0], "monitor": float(p)}
     return FEReference(pr, tuple(fe_cells), r.steps, r.factorizations, seconds,
                        asked[0], asked[1], r.pressure[:, 0], r.pressure[:, 1:1 + nh],
-                       r.pressure[:, 1 + nh:], axis, mean, trough, ends)
+                       r.pressure[:, 1 + nh:1 + len(col)], axis, mean, trough, ends,
+                       r.pressure[:, 1 + len(col):].reshape(-1, len(pr.rows),
+                                                            len(pr.trough)))
 
 
 def solve(comm, soil, body, loading, schedule, probes_: Probes, time_factor,
@@ -321,6 +330,20 @@ def _column_error(fe, j: int, prof, q: float, excess) -> float:
     return float(100 * np.max(np.abs(p - fe.column[j, k] / q))) if len(mine) else math.nan
 
 
+def _rms_error(fe, j: int, prof, q: float, excess) -> float:
+    """The RMS of p/q - FE (% of q) over every point of the profile ``prof`` ((y0, p,
+    volume, x) rows), the FE at each point's position."""
+    pr = fe.probes
+    xs, ys = np.asarray(pr.trough), np.asarray(pr.rows)
+    if not len(prof) or fe.field is None or not len(ys):
+        return math.nan
+    i = np.clip(np.searchsorted(ys, prof[:, 0] - 1e-9 * pr.H), 0, len(ys) - 1)
+    # The current x is within a displacement of the column's: the nearest column.
+    k = np.clip(np.searchsorted((xs[1:] + xs[:-1]) / 2, prof[:, 3]), 0, len(xs) - 1)
+    d = excess(prof[:, 1], prof[:, 0]) / q - fe.field[j, i, k] / q
+    return float(100 * np.sqrt(np.mean(d * d)))
+
+
 def compare(fe, q: float, reports, degree, profiles=(), excess=None) -> list:
     """The run against the FE at its report times: from the run's ``reports`` (p / q at
     the monitor) and ``degree`` (the settlement at the axis and the mean under the load),
@@ -345,6 +368,7 @@ def compare(fe, q: float, reports, degree, profiles=(), excess=None) -> list:
                    error_p_pct_of_q=100 * (runs[2] - fes[2]))
         if j is not None and r["t"] in by_t and excess is not None:
             row["error_profile_max_pct_of_q"] = _column_error(fe, j, by_t[r["t"]], q, excess)
+            row["error_rms_pct_of_q"] = _rms_error(fe, j, by_t[r["t"]], q, excess)
         rows.append(row)
     return rows
 
@@ -358,10 +382,11 @@ def print_comparison(comm, rows, fe, extent):
              f"{extent[1]:g} m), errors in % of the FE's; the excess pore pressure p/q at "
              f"the monitor (x, y) = ({pr.monitor[0]:.5g}, {pr.monitor[1]:.5g}) m"
              + (f" and its largest error in the column under the axis (x = {pr.column:.5g}"
-                " m)" if profile else "") + ", errors in % of q:",
+                " m) and the RMS error over every point (the FE at each point's position)"
+                if profile else "") + ", errors in % of q:",
              f"{'T_v':>6s}{'axis':>9s}{'FE':>9s}{'error':>8s}{'mean':>9s}{'FE':>9s}"
              f"{'error':>8s}{'p/q':>8s}{'FE':>8s}{'error':>8s}"
-             + (f"{'column':>8s}" if profile else "")]
+             + (f"{'column':>8s}{'RMS':>8s}" if profile else "")]
     for r in rows:
         mm = [1e3 * r[k] for k in ("settlement_axis_m", "fe_settlement_axis_m",
                                   "settlement_mean_m", "fe_settlement_mean_m")]
@@ -370,7 +395,7 @@ def print_comparison(comm, rows, fe, extent):
                      f"{r['error_settlement_mean_pct']:+7.2f}%{r['p_over_q']:8.3f}"
                      f"{r['fe_p_over_q']:8.3f}{r['error_p_pct_of_q']:+8.2f}"
                      + (f"{r.get('error_profile_max_pct_of_q', math.nan):8.2f}"
-                        if profile else ""))
+                        f"{r.get('error_rms_pct_of_q', math.nan):8.3f}" if profile else ""))
     PETSc.Sys.Print("\n".join(lines), comm=comm)
 
 
