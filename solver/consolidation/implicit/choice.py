@@ -1,21 +1,21 @@
 """``-mpm_scheme auto``: the explicit step or the implicit scheme, per scene, in one line.
 
-The explicit v-w step is a wave solver: it pays for every wave period the scene's time
-holds, and its answer carries the inertia that the quasi-static references leave out. The
-implicit scheme is quasi-static: its cost grows with the number of unknowns and hardly with
-time. ``auto`` takes the explicit step where
+Consolidation is quasi-static: every reference of this solver (Terzaghi, the layered and
+self-weight columns, the FE of :mod:`solver.references.biot`) leaves inertia out. The
+explicit v-w step is a wave solver: it pays for every wave period the scene's time holds,
+and until the waves die its answer carries them, an error against the quasi-static
+answer. The implicit scheme is quasi-static: its cost grows with the number of unknowns and
+hardly with time. ``auto`` takes the explicit step only where
 
 - an explicit-only option is given on the command line (the user asked for the step), or
-- inertia shows at the first report: the explicit step's own inertia estimate there
-  (:func:`solver.consolidation.explicit.inertia.regime`, the wave and the drag lag under
-  its damping, without mass scaling) exceeds TOLERANCE of q, or the regime Pi (consolidation
-  time over the slowest wave's period) is below inertia.PI_MIN, where a residual oscillation
-  was measured: the dynamics are then part of the answer and the quasi-static scheme would
-  leave them out, or
-- its estimated cost is below the implicit scheme's,
+- it is estimated both within TOLERANCE of q of the quasi-static answer at the first report
+  (its own inertia estimate there, :func:`solver.consolidation.explicit.inertia.regime`:
+  the wave and the drag lag under its damping and mass scaling) and cheaper than the
+  implicit scheme,
 
-and the implicit scheme everywhere else. The costs are estimates from constants measured
-on this project's 2-core machine (:data:`EXPLICIT_S`, :data:`IMPLICIT_S`; docs/studies.md,
+and the implicit scheme everywhere else. A scene about inertia itself (the stiff column)
+names the explicit step. The costs are estimates from constants measured on this
+project's 2-core machine (:data:`EXPLICIT_S`, :data:`IMPLICIT_S`; docs/studies.md,
 "Explicit or implicit"): only their ratio matters.
 """
 
@@ -27,11 +27,12 @@ from ..explicit import inertia
 from .quasistatic import step_ends
 
 TOLERANCE = inertia.TOLERANCE
-# Seconds per material point and explicit step (the v-w kernels, one rank), and per unknown
-# and implicit solve (MUMPS' triangular solves and the operators' products, one rank; the
-# factorizations add about as much again): measured on the strips and columns here.
-EXPLICIT_S = 0.4e-6
-IMPLICIT_S = 3.0e-6
+# Seconds per material point and explicit step (the v-w kernels, one rank: M3-Q4, 136,250
+# steps of 640 points in 6.5 s) and per unknown and implicit solve, the factorizations
+# included (one rank: the strip on 32 x 16 Q4 cells, 353 solves of 1,683 unknowns and 20
+# factorizations in 0.36 s), measured on this project's 2-core machine.
+EXPLICIT_S = 7.5e-8
+IMPLICIT_S = 6.0e-7
 
 
 def check(p) -> None:
@@ -68,8 +69,8 @@ def costs(soil, body, p, scheme, refs) -> tuple:
     corners = (body.cells[0] + 1) * (body.cells[1] + 1)
     unknowns = 2 * nodes + corners
     asked = [refs.time(t) for t in p.Tv_report] + [refs.time(p.Tv_end)]
-    solves = 2 * len(step_ends(asked, p.implicit_steps))
-    return steps * n_points * EXPLICIT_S, 2 * solves * unknowns * IMPLICIT_S
+    solves = 2 * len(step_ends(asked, p.implicit_steps)) + 2
+    return steps * n_points * EXPLICIT_S, solves * unknowns * IMPLICIT_S
 
 
 def choose(p, soil, body, scheme, refs) -> tuple:
@@ -81,16 +82,14 @@ def choose(p, soil, body, scheme, refs) -> tuple:
         return "explicit", (f"Scheme: explicit (-mpm_scheme auto: -mpm_{given[0]} is an "
                             "option of the explicit step)")
     reg = inertia.regime(soil, body.height, min(p.Tv_report), scheme.damping,
-                         scheme.fast_damping, 1.0, scheme.wave_period)
-    shown = max(reg["wave_error"], reg["drag_lag_error"])
+                         scheme.fast_damping, scheme.mass_scaling, scheme.wave_period)
+    error = max(reg["wave_error"], reg["drag_lag_error"])
     explicit_s, implicit_s = costs(soil, body, p, scheme, refs)
     cost = f"estimated {explicit_s:.3g} s explicit against {implicit_s:.3g} s implicit"
-    if shown > TOLERANCE or reg["Pi"] < inertia.PI_MIN:
-        return "explicit", (f"Scheme: explicit (-mpm_scheme auto: inertia shows at the first "
-                            f"report, about {100 * shown:.2g} % of q with Pi = "
-                            f"{reg['Pi']:.3g} > the quasi-static scheme's reach; {cost})")
-    if explicit_s < implicit_s:
-        return "explicit", f"Scheme: explicit (-mpm_scheme auto: {cost})"
-    return "implicit", (f"Scheme: implicit (-mpm_scheme auto: inertia below "
-                        f"{100 * TOLERANCE:g} % of q at the first report, Pi = "
-                        f"{reg['Pi']:.3g}; {cost})")
+    if error <= TOLERANCE and explicit_s < implicit_s:
+        return "explicit", (f"Scheme: explicit (-mpm_scheme auto: its inertia within "
+                            f"{100 * TOLERANCE:g} % of q at the first report, Pi_S = "
+                            f"{reg['Pi_S']:.3g}, and {cost})")
+    why = (f"the explicit step's inertia about {100 * min(error, 1):.3g} % of q at the first "
+           f"report (Pi_S = {reg['Pi_S']:.3g})" if error > TOLERANCE else cost)
+    return "implicit", f"Scheme: implicit (-mpm_scheme auto: {why})"
