@@ -24,6 +24,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 SOLVER = REPO / "solver"
 ROOMS = ("common", "model", "references", "io", "eigen", "consolidation.explicit",
+         "consolidation.implicit",
          "consolidation", "studies")
 CLI = "__main__"
 DRIVERS = ("eigen.driver", "consolidation.driver")
