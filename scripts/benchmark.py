@@ -5,6 +5,8 @@
     .venv/bin/python scripts/benchmark --quick    # up to 1e5 points
     .venv/bin/python scripts/benchmark --sizes 2e5,1e6 --elements q4 --ranks 1,2
     .venv/bin/python scripts/benchmark --paper    # also time scripts/reproduce-paper
+    .venv/bin/python scripts/benchmark --footing  # the implicit scheme's footing, 1e5 points
+                                                  # (scripts/footing_benchmark.py)
 
 Prints and writes benchmark.json, benchmark.txt and benchmark.png into
 output/studies/benchmark/ (``--publish``: docs/results/, the tracked copy
@@ -685,6 +687,12 @@ def write_results(result, lines, prefix: str) -> None:
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--footing" in argv:          # the implicit scheme's footing (scripts/footing-benchmark)
+        sys.path.insert(0, str(REPO / "scripts"))
+        import footing_benchmark
+
+        return footing_benchmark.main([a for a in argv if a != "--footing"])
     ap, args = arguments(argv)
     if args.worker:
         worker(json.loads(args.worker))

@@ -1,0 +1,204 @@
+#!/usr/bin/env python3
+"""The footing benchmark (``scripts/benchmark --footing``): a strip footing on layered clay
+at about 1e5 material points to T_v = 1, by the implicit scheme on two ranks, against the FE
+at twice the resolution and against the explicit step's time for the same case.
+
+    .venv/bin/python scripts/benchmark --footing              # 224 x 112 cells, 100,352 points
+    .venv/bin/python scripts/benchmark --footing --cells 32,16 --ranks 1   # a small check
+
+The scene is cases/consolidation-strip-layered.opts (a 2 m footing on 0.5 m of silty sand
+over 1.5 m of clay, a half model) on ``--cells`` Q4 cells with 2 x 2 points each. Three
+measurements, each in its own process:
+
+1. the implicit run (``-mpm_scheme implicit``, ``mpirun -n RANKS``, no FE reference, no
+   figures): its wall time (the whole command) and its phases, steps, factorizations and
+   solves, and the mean settlement under the load at T_v = 0.01, 0.1, 1;
+2. the FE reference (solver/references/biot.py) of the same ground on Q9/Q4 cells as many
+   as the run's, twice its nodal resolution, LU by MUMPS, at the same times: the run's
+   settlement error against it;
+3. the explicit step of the same scene (its own options: mass scaling auto), run for about
+   ``--explicit-seconds`` of stepping; its time per step times the steps to T_v = 1 is its
+   extrapolated time (the run itself would take hours to days).
+
+Prints a table and writes footing-benchmark.json and .txt into output/studies/benchmark/
+(``--publish``: docs/results/; ``--out FOLDER`` elsewhere).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+if __name__ == "__main__":
+    sys.path.insert(0, str(REPO))
+    from solver.io.launch import use_petsc_python
+
+    use_petsc_python()
+
+SCENE = REPO / "cases" / "consolidation-strip-layered.opts"
+TV = (0.01, 0.1, 1.0)
+QUIET = ["-mpm_figures", "0", "-mpm_fe_reference", "0", "-mpm_progress", "0"]
+
+
+def arguments(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cells", default="224,112", help="Q4 cells NX,NY (default 224,112)")
+    ap.add_argument("--ranks", type=int, default=2, help="ranks of the implicit run")
+    ap.add_argument("--explicit-seconds", type=float, default=60.0,
+                    help="about this many seconds of explicit steps are timed (0: none)")
+    ap.add_argument("--publish", action="store_true", help="write into docs/results/")
+    ap.add_argument("--out", default=None, help="folder for the results")
+    return ap.parse_args(argv)
+
+
+def _solver(args, ranks: int, timeout: float = 3600.0) -> tuple:
+    """(seconds, summary) of ``python -m solver args`` on ``ranks`` ranks."""
+    cmd = [sys.executable, "-m", "solver", "-options_file", str(SCENE), *args]
+    if ranks > 1:
+        cmd = [shutil.which("mpirun"), "-n", str(ranks), *cmd]
+    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    out = Path(args[args.index("-mpm_output") + 1])
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True,
+                          timeout=timeout)
+    seconds = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise SystemExit(f"footing benchmark: the solver failed ({proc.returncode}):\n"
+                         f"{proc.stderr[-2000:]}")
+    return seconds, json.loads((out / "summary.json").read_text())
+
+
+def implicit_run(cells, ranks, folder) -> dict:
+    args = ["-mpm_scheme", "implicit", "-mpm_cells", cells, "-mpm_Tv_end", "1",
+            "-mpm_Tv_report", ",".join(map(str, TV)), *QUIET, "-mpm_output", str(folder)]
+    seconds, s = _solver(args, ranks)
+    degree = s["consolidation_degree"]
+    return {"seconds": seconds, "wall": s["wall"], "points": s["n_points"], "ranks": ranks,
+            "implicit": s["implicit"], "Tv": degree["Tv"],
+            "settlement_mean_m": degree["settlement_m"]}
+
+
+def fe_reference(cells) -> dict:
+    """The FE of the scene on Q9/Q4 cells ``cells`` (NX, NY) at TV, by MUMPS (serial)."""
+    from petsc4py import PETSc
+
+    from solver.consolidation import fe_reference as fe
+    from solver.references import biot
+
+    _, ground, body, loading = _scene(",".join(map(str, cells)))
+    PETSc.Options().setValue("biot_pc_factor_mat_solver_type", "mumps")
+    t = [ground.height ** 2 * tv / ground.c_v for tv in TV]
+    t0 = time.perf_counter()
+    r = biot.solve(PETSc.COMM_SELF, fe.body_of(ground.as_material(), body, loading), t,
+                   [[0.0, body.height / 2]], cells=cells, steps=fe.STEPS)
+    return {"cells": list(cells), "seconds": time.perf_counter() - t0, "steps": r.steps,
+            "factorizations": r.factorizations, "settlement_mean_m": list(r.settlement)}
+
+
+def _scene(cells):
+    """(options, ground, body, loading) of the scene on ``cells`` ('NX,NY')."""
+    from solver.io import options
+    from solver.io.scenefile import pairs
+    from solver.model.scene import Body, Loading
+    from solver.model.soil import Ground
+
+    values = {k[4:]: v for k, v in pairs(str(SCENE))}
+    values.pop("output", None)
+    values["cells"] = cells
+    p = options.from_mapping(values)
+    return p, Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
+
+
+def mass_scaling(cells) -> float:
+    """The factor S the scene's explicit run picks (-mpm_mass_scaling auto)."""
+    from petsc4py import PETSc
+
+    from solver.consolidation.explicit import inertia
+    from solver.consolidation.explicit.scheme import Scheme
+
+    p, ground, body, loading = _scene(cells)
+    soil = ground.as_material()
+    period = inertia.slowest_period(PETSc.COMM_SELF, body, soil, loading)
+    return Scheme.from_options(p, soil, min(p.Tv_report), period).mass_scaling
+
+
+def explicit_estimate(cells, budget, folder) -> dict:
+    """The explicit step's seconds per step on one rank and its steps to T_v = 1."""
+    probe = folder / "probe"
+    S = mass_scaling(cells)
+
+    def run(tv):
+        # The scene's mass scaling as its full run picks it (auto depends on the first
+        # report, which these short runs move).
+        args = ["-mpm_scheme", "explicit", "-mpm_cells", cells, "-mpm_Tv_end", f"{tv:.6g}",
+                "-mpm_Tv_report", f"{tv:.6g}", "-mpm_mass_scaling", repr(S), *QUIET,
+                "-mpm_output", str(probe)]
+        return _solver(args, 1)[1]
+
+    # A short run learns dt and the time per step; a second steps for about ``budget`` s.
+    tv = 1e-6
+    for _ in range(3):
+        s = run(tv)
+        per_step = s["wall"]["stepping_s"] / max(s["steps"], 1)
+        if s["wall"]["stepping_s"] > budget / 2:
+            break
+        tv = min(1.0, tv * budget / per_step / max(s["steps"], 1))
+    steps_total = s["steps"] / tv
+    return {"dt_s": s["dt"], "steps_timed": s["steps"], "stepping_s": s["wall"]["stepping_s"],
+            "seconds_per_step": per_step, "steps_to_Tv1": steps_total,
+            "extrapolated_s": per_step * steps_total,
+            "mass_scaling": S}
+
+
+def main(argv=None) -> int:
+    args = arguments(argv)
+    cells = tuple(int(c) for c in args.cells.split(","))
+    folder = Path(args.out or (REPO / ("docs/results" if args.publish
+                                       else "output/studies/benchmark")))
+    folder.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        run = implicit_run(args.cells, args.ranks, tmp / "implicit")
+        fe = fe_reference(cells)
+        explicit = explicit_estimate(args.cells, args.explicit_seconds, tmp) \
+            if args.explicit_seconds > 0 else None
+    errors = [100 * (a / b - 1) for a, b in zip(run["settlement_mean_m"],
+                                                fe["settlement_mean_m"])]
+    lines = [f"Footing benchmark: cases/consolidation-strip-layered.opts on {cells[0]} x "
+             f"{cells[1]} Q4 cells, {run['points']:,} material points, to T_v = 1",
+             f"Implicit scheme on {run['ranks']} rank(s): {run['seconds']:.1f} s in all "
+             f"(set-up {run['wall']['setup_s']:.1f} s, steps {run['wall']['stepping_s']:.1f} "
+             f"s); {run['implicit']['steps']} steps, {run['implicit']['factorizations']} "
+             f"factorizations ({run['implicit']['factor_seconds']:.1f} s), "
+             f"{run['implicit']['solves']} solves ({run['implicit']['solve_seconds']:.1f} s)",
+             f"FE reference: Q9/Q4 on {cells[0]} x {cells[1]} cells (twice the nodal "
+             f"resolution), {fe['steps']} steps, {fe['seconds']:.1f} s",
+             f"{'T_v':>6s}{'run (mm)':>11s}{'FE (mm)':>11s}{'error':>9s}"]
+    lines += [f"{tv:6.3g}{1e3 * a:11.4f}{1e3 * b:11.4f}{e:+8.3f}%" for tv, a, b, e in zip(
+        TV, run["settlement_mean_m"], fe["settlement_mean_m"], errors)]
+    if explicit:
+        lines.append("Explicit step (one rank, the scene's mass scaling, "
+                     f"S = {explicit['mass_scaling']:.3g}, dt = {explicit['dt_s']:.3g} s, {explicit['steps_to_Tv1']:.4g} steps to "
+                     f"T_v = 1; {explicit['steps_timed']} steps took {explicit['stepping_s']:.1f}"
+                     f" s, so about {explicit['extrapolated_s']:.3g} s "
+                     f"({explicit['extrapolated_s'] / 3600:.3g} h) in all")
+    print("\n".join(lines))
+    result = {"cells": list(cells), "implicit": run, "fe": fe, "errors_pct": errors,
+              "explicit": explicit, "Tv": list(TV)}
+    (folder / "footing-benchmark.json").write_text(json.dumps(result, indent=1))
+    (folder / "footing-benchmark.txt").write_text("\n".join(lines) + "\n")
+    print(f"Results in {folder}: footing-benchmark.json, footing-benchmark.txt")
+    return 0 if all(math.isfinite(e) for e in errors) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
