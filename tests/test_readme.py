@@ -104,14 +104,17 @@ def _reference_words(p) -> set:
 
 
 def test_the_scenes_table_is_cases():
-    """One row per file of cases/, in the file's analysis, element, cells and points per
-    cell, with a description, the reference its options give it and a measured wall time."""
+    """One row per file of cases/, in the file's analysis, scheme, element, cells and points
+    per cell, with a description, the reference its options give it and a measured wall time."""
     rows = readme_table("Scenes")
     names = [re.fullmatch(r"`([\w-]+)`", row[0]).group(1) for row in rows]
     assert sorted(names) == sorted(p.stem for p in CASES.glob("*.opts"))
-    for name, (_, analysis, what, mesh, reference, wall) in zip(names, rows):
+    for name, (_, analysis, scheme, what, mesh, reference, wall) in zip(names, rows):
         p = _scene(name)
         assert analysis == p.analysis, name
+        # A scene names its scheme, or auto picks the implicit one (test_implicit.py).
+        assert scheme == ("-" if p.analysis == "eigen" else
+                          "implicit" if p.scheme == "auto" else p.scheme), name
         nx, ny = p.cells
         assert mesh == f"{p.element.upper()} {nx} x {ny}, {p.ppc} x {p.ppc}", name
         assert len(what.split()) >= 4, name

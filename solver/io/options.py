@@ -175,8 +175,9 @@ SPEC = [
     Option("scheme", "str", "auto", "time scheme: explicit (the dynamic v-w step of the "
            "paper), implicit (quasi-static u-p Biot on the material points: TR-BDF2 on steps "
            "graded from the load, LU by MUMPS; options -mpm_ksp_*, -mpm_pc_*, -mpm_mat_mumps_*) "
-           "or auto (implicit unless inertia shows at the first report or the explicit step is "
-           "estimated cheaper; it prints why)", (CONSOLIDATION,),
+           "or auto (implicit, unless the explicit step is estimated both within 0.2 % of q of "
+           "the quasi-static answer at the first report and cheaper, or an option of the "
+           "explicit step is given; it prints why)", (CONSOLIDATION,),
            choices=("auto", "explicit", "implicit")),
     Option("implicit_steps", "int", 8, "implicit scheme: time steps per doubling of time "
            "(report times are step ends)", (CONSOLIDATION,), _at_least_one),
