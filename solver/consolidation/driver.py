@@ -307,7 +307,9 @@ def _implicit_schedule(p, refs, state) -> Schedule:
     named = {tv: refs.time(tv) for tv in sorted(set(reporting.ISOCHRONES) | set(p.Tv_report))
              if tv <= p.Tv_end + 1e-12}
     named[p.Tv_end] = refs.time(p.Tv_end)
-    ends = step_ends(list(named.values()), p.implicit_steps)
+    # A load ramp's end is a step's end too: the load's kink falls between steps.
+    ramp = [p.load_ramp] if 0 < p.load_ramp < named[p.Tv_end] else []
+    ends = step_ends(list(named.values()) + ramp, p.implicit_steps)
     done = list(state.times[:state.step])
     if done:
         ends = np.r_[done, ends[ends > done[-1] * (1 + 1e-12)]]
