@@ -1,12 +1,14 @@
 """Consolidation of a soil body (paper Section 5, Tables 1, 4, 5, Figs 3-5): set-up and steps.
 
 :func:`run` reads the options once, in the set-up, and turns them into a
-:class:`solver.consolidation.plan.Plan`: the soil, the body and its loading, the step's scheme, the
-critical time steps (:mod:`solver.consolidation.explicit.timestep`, with f1 from
-:mod:`solver.eigen.frequency`), the schedule and the references. The time loop then drives
-:mod:`solver.consolidation.explicit.twophase` from t = 0 to T_v = ``-mpm_Tv_end`` with a
-progress line and hands its results to :mod:`solver.consolidation.reporting`, which compares
-the monitor point and whole profiles at the report times with two analytic references:
+:class:`solver.consolidation.plan.Plan`: the soil, the body and its loading, the time scheme
+and its steps (:mod:`solver.consolidation.schedules`: the explicit step's critical time
+steps, or the implicit scheme's steps graded from the load), and the references. The time
+loop then drives the explicit step (:mod:`solver.consolidation.explicit.twophase`) or the
+implicit scheme (:mod:`solver.consolidation.implicit.quasistatic`) from t = 0 to T_v =
+``-mpm_Tv_end`` with a progress line and hands its results to
+:mod:`solver.consolidation.reporting`, which compares the monitor point and whole profiles at
+the report times with two analytic references:
 - classic Terzaghi: p0 = q, c_v = k E_c / gamma_w (what the paper compares against);
 - consistent Terzaghi: p0 = q (K_l/n) / (K_l/n + E_c), diffusivity c2 (compressible water),
   which isolates the numerical error.
@@ -23,9 +25,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..common import clock, signals
-from ..common.errors import (InputError, Interrupted, NotConverged, NumericalError, agree_code,
-                             entry)
-from ..eigen import frequency
+from ..common.errors import InputError, Interrupted, NumericalError, agree_code, entry
 from ..io import checkpoint, memory, output, provenance
 from ..io.checkpoint import RunState
 from ..io.failure import RunFailure
@@ -33,14 +33,13 @@ from ..model import scene
 from ..model.scene import Body, Loading
 from ..model.soil import Ground, check_count
 from ..references import static
-from . import fe_reference, plan as plans, reporting, settlement, workprecision
-from .explicit import inertia, timestep
-from .explicit.inertia import MAX_STEPS
+from . import fe_reference, plan as plans, reporting, schedules, settlement, workprecision
+from .explicit import inertia
 from .explicit.scheme import Scheme, lateral_drainage_notes
 from .explicit.twophase import TwoPhase, point_fields
 from .implicit import choice
-from .implicit.quasistatic import QuasiStatic, step_ends
-from .plan import Limits, Outputs, Plan, References, Schedule
+from .implicit.quasistatic import QuasiStatic
+from .plan import Outputs, Plan, References
 
 
 def _validate(p) -> tuple:
@@ -92,7 +91,7 @@ def _validate(p) -> tuple:
     if "none" in p.drained and len(p.drained) > 1:
         raise InputError(f"-mpm_drained {','.join(p.drained)}: none means no drained side; "
                          "give it alone")
-    choice.check(p)
+    choice.check(choice.Request.from_options(p))
     if p.scheme != "implicit":
         notes += lateral_drainage_notes(p.element, p.drained, p.pressure_projection)
     fe_reference.check_cells(p.fe_cells, p.layers, H)
@@ -224,14 +223,8 @@ def _set_up(p, comm, ctx) -> tuple:
         checkpoint.check_end(p.restart, restart[2], refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
                                  inertia.slowest_period(comm, body, soil, loading))
-    if restart is None:
-        method, why = choice.choose(p, soil, body, scheme, refs)
-    else:
-        method = restart[2].get("method", "explicit")
-        why = f"Scheme: {method} (the checkpoint's)"
-    PETSc.Sys.Print(why, comm=comm)
-    for note in choice.notes(p, method):
-        PETSc.Sys.Print(f"Note: {note}", comm=comm)
+    req = choice.Request.from_options(p)
+    method = schedules.method(comm, req, soil, body, scheme, refs, restart and restart[2])
     fields = point_fields(scheme, ground.count > 1)
     if restart is not None:
         checkpoint.check_fields(p.restart, restart[1], fields)
@@ -254,22 +247,11 @@ def _set_up(p, comm, ctx) -> tuple:
                            "x0" if scheme.kinematics == "small" else "x")
     elif loading.geostatic:
         scene.geostatic_state(points, body, soil, loading)
-    if method == "explicit":
-        limits = _explicit_limits(p, comm, body, soil, scheme, grid.h, state, restart)
-    else:
-        limits = Limits({}, "", (), math.nan, inertia.regime(
-            soil, body.height, min(p.Tv_report), scheme.damping, scheme.fast_damping, 1.0,
-            scheme.wave_period))
-    signals.stage("set-up: the step counts")
+    limits, schedule = schedules.limits_and_schedule(comm, req, method, (body, soil, scheme),
+                                                     grid.h, state, restart is not None, refs)
     if not refs.available and not loading.self_weight:
         signals.stage("set-up: the static references")
         refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))
-    if method == "explicit":
-        schedule = Schedule(state.dt, *_steps(refs, state.dt, p.Tv_end, p.Tv_report),
-                            p.Tv_end, tuple(p.Tv_report), p.output_every, p.checkpoint_every,
-                            p.checkpoint_seconds, p.progress)
-    else:
-        schedule = _implicit_schedule(p, refs, state)
     signals.stage("set-up: the FE reference")
     refs, probes = fe_reference.attach(comm, refs, (soil, body, loading), points, schedule,
                                        monitor, p.fe_reference, p.fe_cells)
@@ -284,44 +266,6 @@ def _set_up(p, comm, ctx) -> tuple:
                 method=method, stabilize=p.pressure_stabilization != "none")
     _print_plan(comm, plan, points.n_global)
     return plan, grid, points, state, t_wall
-
-
-def _explicit_limits(p, comm, body, soil, scheme, h, state, restart) -> Limits:
-    """The explicit step's critical time steps, its dt (into ``state``) and the inertia
-    regime, printed; InputError for a dt far beyond the stability limit."""
-    limits, patch = _critical_steps(comm, body, soil, scheme, h, p.stability_analysis,
-                                    (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps))
-    given = None if math.isnan(p.dt) else p.dt
-    state.dt = state.dt if restart is not None else _choose_dt(limits, given, p.dt_safety)
-    reporting.print_limits(comm, limits, state.dt, soil, body, scheme, patch,
-                           "given by -mpm_dt" if given else
-                           f"{p.dt_safety} x {limits.governing}")
-    return _check_dt(comm, limits, state.dt, soil, body.height, scheme, min(p.Tv_report),
-                     p.allow_unstable)
-
-
-def _implicit_schedule(p, refs, state) -> Schedule:
-    """The implicit scheme's graded steps through the report and isochrone times to T_v =
-    ``-mpm_Tv_end``; a restart keeps the steps it took (``state.times``) and grades on from
-    its last, so that the same options continue exactly."""
-    named = {tv: refs.time(tv) for tv in sorted(set(reporting.ISOCHRONES) | set(p.Tv_report))
-             if tv <= p.Tv_end + 1e-12}
-    named[p.Tv_end] = refs.time(p.Tv_end)
-    # A load ramp's end is a step's end too: the load's kink falls between steps.
-    ramp = [p.load_ramp] if 0 < p.load_ramp < named[p.Tv_end] else []
-    ends = step_ends(list(named.values()) + ramp, p.implicit_steps)
-    done = list(state.times[:state.step])
-    if done:
-        ends = np.r_[done, ends[ends > done[-1] * (1 + 1e-12)]]
-    ends = np.asarray(ends, dtype=float)
-    state.times = ends.tolist()
-    at = {tv: int(np.argmin(np.abs(ends - t))) + 1 for tv, t in named.items()}
-    report = {at[tv]: tv for tv in p.Tv_report if tv in at}
-    iso = {at[tv]: tv for tv in named if tv in set(reporting.ISOCHRONES) | set(p.Tv_report)}
-    state.dt = float(ends[0])
-    return Schedule(math.nan, len(ends), report, iso, p.Tv_end, tuple(p.Tv_report),
-                    p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress,
-                    times=tuple(ends.tolist()), sample_every=1)
 
 
 def _target(p, comm) -> tuple:
@@ -353,93 +297,6 @@ def _place_monitor(points, body, loading, at, height, mpi) -> tuple:
     elif plans.no_reference(body, loading):
         wanted_x = plans.axis(body, loading)
     return reporting.place_monitor(points, body.height, wanted_y, wanted_x, mpi)
-
-
-def _critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
-    """(the critical time steps as :class:`Limits`, f1 and the governing one set, and the
-    patch of the stability analysis), in the log stage "Critical time steps"; ``h`` the
-    cell sizes (m); ``stability``: run the stability analysis; ``f1_solver`` (solver,
-    tolerance, sweeps) the arguments of :func:`frequency.fundamental_frequency`."""
-    S = scheme.mass_scaling
-    with PETSc.Log.Stage("Critical time steps"):
-        signals.stage("set-up: the fundamental frequency f1")
-        try:
-            f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
-        except NotConverged:
-            raise                    # a solver the options chose (-f1_eps_*) that failed
-        except NumericalError as exc:
-            # f1 only feeds the spring-mass criterion, which does not bound stability (see
-            # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
-            # reason to refuse the run, whose lumped masses are positive.
-            PETSc.Sys.Print(f"Note: no fundamental frequency, hence no oscillator "
-                            f"criterion: {exc}", comm=comm)
-            f1 = math.nan
-        if stability:
-            # A dense eigenvalue analysis: on large grids the longest part of the set-up.
-            cells = timestep.analysis_cells(body.element, body.cells)
-            signals.stage("set-up: the stability analysis")
-            PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} "
-                            "cells ...", comm=comm)
-            t_analysis = time.perf_counter()
-            dt_discrete, patch = timestep.discrete_limit(comm, body, soil, scheme)
-            PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f}"
-                            " s", comm=comm)
-        else:
-            dt_discrete, patch = math.nan, body.cells
-        steps = timestep.criteria(soil, body.height, f1, dt_discrete, h, S)
-        steps = {k: v for k, v in steps.items() if not math.isnan(v)}
-    return Limits(steps, timestep.governing(steps, scheme.drag), (), f1), patch
-
-
-def _choose_dt(limits, given, safety) -> float:
-    """The step (s): ``given``, or ``safety`` times the governing limit rounded down to 3
-    significant digits: the limits come from iterative eigensolvers whose last digits vary
-    with the number of ranks, and the run should not."""
-    if given is not None:
-        return given
-    return _round_down(safety * limits.steps[limits.governing], 3)
-
-
-def _check_dt(comm, limits, dt, soil, H, scheme, first_tv, allow_unstable) -> Limits:
-    """The limits with the ones ``dt`` (s) exceeds and the inertia regime (printed);
-    InputError for a step far beyond the stability limit (unless ``allow_unstable``), a
-    warning for one beyond any."""
-    exceeded = [k for k, v in timestep.applicable(limits.steps, scheme.drag).items()
-                if dt > v]
-    regime = inertia.regime(soil, H, first_tv, scheme.damping, scheme.fast_damping,
-                            scheme.mass_scaling, scheme.wave_period)
-    PETSc.Sys.Print(inertia.describe(regime), comm=comm)
-    stability = timestep.stability_limits(limits.steps, scheme.drag)
-    worst = max(stability, key=lambda k: dt / stability[k])
-    if dt > 2 * stability[worst] and not allow_unstable:
-        raise InputError(f"-mpm_dt {dt:.4g}: {dt / stability[worst]:.1f} x the {worst} "
-                         f"critical time step {stability[worst]:.4g} s; the run would blow "
-                         "up (-mpm_allow_unstable runs it anyway)")
-    if exceeded:
-        msg = (f"WARNING: dt = {dt:.4g} s exceeds the critical time step(s) "
-               + ", ".join(f"{k} {limits.steps[k]:.4g} s" for k in exceeded)
-               + ("" if set(exceeded) <= {"oscillator", "cfl", "diffusion"}
-                  else ": expect the run to blow up"))
-        PETSc.Sys.Print("!" * len(msg) + "\n" + msg + "\n" + "!" * len(msg), comm=comm)
-    return dataclasses.replace(limits, exceeded=tuple(exceeded), regime=regime,
-                               warning=inertia.warning(regime) or "")
-
-
-def _steps(refs, dt, Tv_end, Tv_report) -> tuple:
-    """(the number of steps, the report steps, the isochrone steps ({step: T_v})) of a
-    run with step dt (s) to T_v = ``Tv_end`` reporting at ``Tv_report``; InputError for a
-    run that would not finish."""
-    t_end = refs.time(Tv_end)
-    if not t_end / dt < MAX_STEPS:
-        raise InputError(f"-mpm_Tv_end {Tv_end}: {t_end / dt:.3g} steps of {dt:.3g} s; "
-                         f"more than {MAX_STEPS:.0e} is not a run that finishes")
-    nsteps = int(math.ceil(t_end / dt - 1e-9))
-    H, cv = refs.H, refs.c_v
-    report_steps = {int(round(tv * H * H / (cv * dt))): tv for tv in Tv_report}
-    iso_steps = {int(round(tv * H * H / (cv * dt))): tv
-                 for tv in sorted(set(reporting.ISOCHRONES) | set(Tv_report))
-                 if tv <= Tv_end + 1e-12}
-    return nsteps, report_steps, iso_steps
 
 
 def _print_plan(comm, plan, n_points):
@@ -690,10 +547,4 @@ def _target_verdict(plan, summary, pace, comm):
         said += (f"; stepping took {goal['stepping_seconds']:.3g} s (predicted "
                  f"{pace.predicted:.3g} s)")
     PETSc.Sys.Print(f"Target error {target:g} %: {said}", comm=comm)
-
-
-def _round_down(x: float, digits: int) -> float:
-    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return math.floor(x / scale) * scale
-
 

@@ -3,9 +3,9 @@ solver`` process, and where their results go.
 
 - ``study``: batches of solver runs for the scripts, and their destinations.
 
-May import: consolidation, consolidation.explicit, eigen, io, references, model, common.
+May import: consolidation, consolidation.implicit, consolidation.explicit, eigen, io, references, model, common.
 
 The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
-consolidation, studies; then the command line (solver/__main__.py). A module imports its own
+consolidation.implicit, consolidation, studies; then the command line (solver/__main__.py). A module imports its own
 room and the rooms before it, never one after it (tests/test_rooms.py).
 """

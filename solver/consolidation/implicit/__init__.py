@@ -1,4 +1,15 @@
-"""The implicit consolidation scheme (``-mpm_scheme implicit``): quasi-static u-p Biot on the
-material points (operators), its time stepping (quasistatic) and the choice between the
-schemes (choice). Imports common/, model/, references/, io/, eigen/ and
-consolidation/explicit/ (the inertia regime), never consolidation/ itself."""
+"""The implicit quasi-static scheme of consolidation and the choice between the schemes. It
+knows nothing of the run around it (the plan, the reporting).
+
+- ``operators``: the u-p operators K, Q, S, H over the material points, the pressure
+  projection, the held DOFs;
+- ``quasistatic``: the undrained start, TR-BDF2 on graded steps, MUMPS LU, the points' fields;
+- ``choice``: ``-mpm_scheme auto`` (which scheme, and why) and the options of each scheme.
+
+May import: consolidation.explicit, eigen, io, references, model, common.
+
+The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+consolidation.implicit, consolidation, studies; then the command line (solver/__main__.py).
+A module imports its own room and the rooms before it, never one after it
+(tests/test_rooms.py).
+"""

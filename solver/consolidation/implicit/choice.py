@@ -21,6 +21,8 @@ project's 2-core machine (:data:`EXPLICIT_S`, :data:`IMPLICIT_S`; docs/studies.m
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from ...common.errors import InputError
 from ...io.options import EXPLICIT_ONLY, IMPLICIT_ONLY
 from ..explicit import inertia
@@ -35,23 +37,56 @@ EXPLICIT_S = 7.5e-8
 IMPLICIT_S = 6.0e-7
 
 
-def check(p) -> None:
+@dataclass(frozen=True)
+class Request:
+    """What the options ask of the time scheme, read once at the edge: ``scheme`` (auto,
+    explicit, implicit), the option names given on the command line (``given``) and in a
+    scene file (``from_file``), the end and report times (T_v), the implicit scheme's
+    ``implicit_steps`` and the load's ``ramp`` (s); the explicit step's ``dt`` (s, NaN:
+    from the limits), ``dt_safety``, ``stability_analysis``, ``f1_solver`` (solver,
+    tolerance, sweeps of the fundamental frequency) and ``allow_unstable``; the cadence of
+    fields, checkpoints and progress (output_every, checkpoint_every, checkpoint_seconds,
+    progress)."""
+
+    scheme: str
+    given: tuple
+    from_file: tuple
+    Tv_end: float
+    Tv_report: tuple
+    implicit_steps: int
+    ramp: float
+    dt: float
+    dt_safety: float
+    stability_analysis: bool
+    f1_solver: tuple
+    allow_unstable: bool
+    cadence: tuple
+
+    @classmethod
+    def from_options(cls, p) -> "Request":
+        return cls(p.scheme, tuple(n for n in p.given if n not in p.from_file),
+                   tuple(p.from_file), p.Tv_end, tuple(p.Tv_report), p.implicit_steps,
+                   p.load_ramp, p.dt, p.dt_safety, p.stability_analysis,
+                   (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps), p.allow_unstable,
+                   (p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress))
+
+
+def check(req: Request) -> None:
     """InputError when the command line gives an option of the other scheme than the one
     ``-mpm_scheme`` names (options of a scene file are only noted: :func:`notes`)."""
-    given = set(p.given) - set(p.from_file)
-    other = EXPLICIT_ONLY if p.scheme == "implicit" else \
-        IMPLICIT_ONLY if p.scheme == "explicit" else ()
-    clash = [n for n in other if n in given]
+    other = EXPLICIT_ONLY if req.scheme == "implicit" else \
+        IMPLICIT_ONLY if req.scheme == "explicit" else ()
+    clash = [n for n in other if n in req.given]
     if clash:
         raise InputError(f"-mpm_{clash[0]}: an option of the "
-                         f"{'explicit' if p.scheme == 'implicit' else 'implicit'} scheme, "
-                         f"not read with -mpm_scheme {p.scheme}")
+                         f"{'explicit' if req.scheme == 'implicit' else 'implicit'} scheme, "
+                         f"not read with -mpm_scheme {req.scheme}")
 
 
-def notes(p, method: str) -> list:
+def notes(req: Request, method: str) -> list:
     """Notes on a scene file's options that the chosen scheme does not read."""
     other = EXPLICIT_ONLY if method == "implicit" else IMPLICIT_ONLY
-    unread = sorted(n for n in other if n in p.from_file)
+    unread = sorted(n for n in other if n in req.from_file)
     if not unread:
         return []
     return [f"{len(unread)} option(s) of the {'explicit' if method == 'implicit' else 'implicit'}"
@@ -59,32 +94,32 @@ def notes(p, method: str) -> list:
             + " ".join(f"-mpm_{n}" for n in unread)]
 
 
-def costs(soil, body, p, scheme, refs) -> tuple:
+def costs(req: Request, soil, body, scheme, refs) -> tuple:
     """(explicit, implicit) estimated seconds of the scene's steps on one rank."""
     n_points = body.cells[0] * body.cells[1] * body.ppc ** 2
-    steps = inertia.estimated_steps(soil, body, p.dt, p.dt_safety, p.Tv_end, scheme.drag,
+    steps = inertia.estimated_steps(soil, body, req.dt, req.dt_safety, req.Tv_end, scheme.drag,
                                     scheme.mass_scaling)
     order = 1 if body.element == "q4" else 2
     nodes = (order * body.cells[0] + 1) * (order * body.cells[1] + 1)
     corners = (body.cells[0] + 1) * (body.cells[1] + 1)
     unknowns = 2 * nodes + corners
-    asked = [refs.time(t) for t in p.Tv_report] + [refs.time(p.Tv_end)]
-    solves = 2 * len(step_ends(asked, p.implicit_steps)) + 2
+    asked = [refs.time(t) for t in req.Tv_report] + [refs.time(req.Tv_end)]
+    solves = 2 * len(step_ends(asked, req.implicit_steps)) + 2
     return steps * n_points * EXPLICIT_S, solves * unknowns * IMPLICIT_S
 
 
-def choose(p, soil, body, scheme, refs) -> tuple:
-    """(explicit | implicit, the line that says why) for the options ``p``."""
-    if p.scheme != "auto":
-        return p.scheme, f"Scheme: {p.scheme} (-mpm_scheme {p.scheme})"
-    given = [n for n in EXPLICIT_ONLY if n in set(p.given) - set(p.from_file)]
+def choose(req: Request, soil, body, scheme, refs) -> tuple:
+    """(explicit | implicit, the line that says why)."""
+    if req.scheme != "auto":
+        return req.scheme, f"Scheme: {req.scheme} (-mpm_scheme {req.scheme})"
+    given = [n for n in EXPLICIT_ONLY if n in req.given]
     if given:
         return "explicit", (f"Scheme: explicit (-mpm_scheme auto: -mpm_{given[0]} is an "
                             "option of the explicit step)")
-    reg = inertia.regime(soil, body.height, min(p.Tv_report), scheme.damping,
+    reg = inertia.regime(soil, body.height, min(req.Tv_report), scheme.damping,
                          scheme.fast_damping, scheme.mass_scaling, scheme.wave_period)
     error = max(reg["wave_error"], reg["drag_lag_error"])
-    explicit_s, implicit_s = costs(soil, body, p, scheme, refs)
+    explicit_s, implicit_s = costs(req, soil, body, scheme, refs)
     cost = f"estimated {explicit_s:.3g} s explicit against {implicit_s:.3g} s implicit"
     if error <= TOLERANCE and explicit_s < implicit_s:
         return "explicit", (f"Scheme: explicit (-mpm_scheme auto: its inertia within "
