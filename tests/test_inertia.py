@@ -15,7 +15,9 @@ from conftest import check_ok
 from petsc4py import PETSc
 from test_consolidation import _limits, _stable, terzaghi
 
-QUIET = ["-mpm_progress", "0", "-mpm_figures", "0"]
+# The explicit step's inertia: its scenes run by -mpm_scheme explicit (auto would take the
+# implicit scheme, which has none).
+QUIET = ["-mpm_scheme", "explicit", "-mpm_progress", "0", "-mpm_figures", "0"]
 
 
 def _consistent_errors(s):

@@ -21,7 +21,7 @@ from solver.references import layered, static
 
 Q = 10e3
 # Two layers, contrast 4 in E and 10 in k, compressible water (the scene).
-TWO = ["-mpm_analysis", "consolidation", "-mpm_layers", "0.5,0.5", "-mpm_E", "40e6,10e6",
+TWO = ["-mpm_analysis", "consolidation", "-mpm_scheme", "explicit", "-mpm_layers", "0.5,0.5", "-mpm_E", "40e6,10e6",
        "-mpm_k", "2.5e-4,2.5e-5", "-mpm_progress", "0", "-mpm_figures", "0"]
 
 
