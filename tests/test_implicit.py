@@ -163,12 +163,13 @@ def test_strip_within_one_percent_of_its_fe(cli, tmp_path):
 
 
 def test_ranks_agree_and_a_restart_continues_exactly(cli, tmp_path):
-    """A block drained on the left under a strip load: 1 and 2 ranks agree within 1e-10 of
-    q; a checkpoint half-way, restarted on the other rank count, ends where the
-    uninterrupted run does."""
+    """A block at rest under gravity, drained at the top and the right, under a strip load:
+    1 and 2 ranks agree within 1e-10 of q; a checkpoint half-way, restarted on the other
+    rank count, ends where the uninterrupted run does (pressure and settlement)."""
     base = ["-mpm_analysis", "consolidation", "-mpm_scheme", "implicit", "-mpm_figures", "0",
             "-mpm_size", "1,0.5", "-mpm_cells", "8,4", "-mpm_load_extent", "0,0.25",
-            "-mpm_drained", "top,right", "-mpm_fe_reference", "0"]
+            "-mpm_drained", "top,right", "-mpm_fe_reference", "0", "-mpm_gravity", "9.81",
+            "-mpm_initial_state", "geostatic"]
     end = ["-mpm_Tv_end", "0.2", "-mpm_Tv_report", "0.05,0.2"]
     runs = [check_ok(cli(base + end, ranks=n, out_dir=tmp_path / str(n), process=True))
             for n in (1, 2)]
@@ -185,6 +186,8 @@ def test_ranks_agree_and_a_restart_continues_exactly(cli, tmp_path):
                         out_dir=tmp_path / "rest"))
     np.testing.assert_allclose(rest["monitor"]["p_over_q"][-1],
                                runs[0]["monitor"]["p_over_q"][-1], rtol=0, atol=1e-12)
+    s_full = runs[0]["consolidation_degree"]["settlement_m"][-1]
+    assert rest["consolidation_degree"]["settlement_m"][-1] == pytest.approx(s_full, rel=1e-10)
 
 
 @pytest.mark.parametrize("args, message", [

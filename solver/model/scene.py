@@ -156,6 +156,17 @@ def geostatic_state(points, body, soil, loading) -> None:
     under gravity with the water table at the surface. It is in equilibrium with the step's
     body forces (the mixture's weight, the liquid's) whatever K0 (rollers on the sides).
     Points that carry the pressure's gradient (the corner projection) get (0, -rho_l g)."""
+    with points.fields("x0", "p", "stress") as (x0, pp, sig):
+        pp[:], sig[:] = geostatic_fields(x0, body, soil, loading)
+    if "gradp" in points.layout:
+        # The pressure's gradient (Pa/m), for the corner projection's liquid force.
+        with points.fields("gradp") as gradp:
+            gradp[:] = (0.0, -soil.rho_l * g)
+
+
+def geostatic_fields(x0, body, soil, loading) -> tuple:
+    """(p (Pa), effective stress (Pa; xx, yy, xy)) of :func:`geostatic_state` at the
+    reference positions x0 (np, 2) (m)."""
     g, layers = loading.gravity, soil.soils
     given = loading.K0 if isinstance(loading.K0, tuple) else (loading.K0,) * len(layers)
     K0 = np.array([s.nu / (1 - s.nu) if math.isnan(k) else k for s, k in zip(layers, given)])
@@ -164,20 +175,15 @@ def geostatic_state(points, body, soil, loading) -> None:
     # The effective stress at each layer's top: the buoyant weight of the layers above.
     above = np.concatenate([[0.0], np.cumsum(buoyant * thickness)[:-1]])
     tops = body.height - np.concatenate([[0.0], np.cumsum(thickness)[:-1]])
-    with points.fields("x0", "p", "stress") as (x0, pp, sig):
-        depth = body.height - x0[:, 1]
-        layer = soil.layer_of(x0[:, 1]) if len(layers) > 1 else np.zeros(len(depth), int)
-        pp[:] = soil.rho_l * g * depth
-        if len(layers) == 1:        # one layer: as before layers, bit for bit
-            sig[:, 1] = -buoyant[0] * depth
-        else:
-            sig[:, 1] = -(above[layer] + buoyant[layer] * (tops[layer] - x0[:, 1]))
-        sig[:, 0] = K0[layer] * sig[:, 1]
-        sig[:, 2] = 0.0
-    if "gradp" in points.layout:
-        # The pressure's gradient (Pa/m), for the corner projection's liquid force.
-        with points.fields("gradp") as gradp:
-            gradp[:] = (0.0, -soil.rho_l * g)
+    depth = body.height - x0[:, 1]
+    layer = soil.layer_of(x0[:, 1]) if len(layers) > 1 else np.zeros(len(depth), int)
+    sig = np.zeros((len(depth), 3))
+    if len(layers) == 1:        # one layer: as before layers, bit for bit
+        sig[:, 1] = -buoyant[0] * depth
+    else:
+        sig[:, 1] = -(above[layer] + buoyant[layer] * (tops[layer] - x0[:, 1]))
+    sig[:, 0] = K0[layer] * sig[:, 1]
+    return soil.rho_l * g * depth, sig
 
 
 def top_forces(grid, loading) -> np.ndarray:

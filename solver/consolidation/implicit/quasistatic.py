@@ -36,7 +36,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ...common.errors import NumericalError, check_converged
-from ...model.scene import top_forces, water_forces
+from ...model.scene import geostatic_fields, top_forces, water_forces
 from ...model.soil import G_REF
 from ...references.biot import GAMMA, schedule as graded
 from .operators import Operators, per_point
@@ -84,7 +84,9 @@ class QuasiStatic:
         self.p_h = self.gamma_h * (H - x0[:, 1])
         self.mobility = per_point(soil, "k", layer) / (soil.soils[0].rho_l * G_REF)
         self.porosity = per_point(soil, "porosity", layer)
-        self.sigma0 = points.get("stress").copy()
+        # The initial effective stress, from the scene (a restart's points hold later ones).
+        self.sigma0 = geostatic_fields(x0, body, soil, loading)[1] if loading.geostatic \
+            else np.zeros((len(volume), 3))
         self.y, self.F_q, self.F_g = (ops.da.createGlobalVec() for _ in range(3))
         self.loc = ops.da.createLocalVec()
         self.work = self.y.duplicate()
