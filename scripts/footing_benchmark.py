@@ -96,11 +96,15 @@ def fe_reference(cells) -> dict:
     from solver.references import biot
 
     _, ground, body, loading = _scene(",".join(map(str, cells)))
-    PETSc.Options().setValue("biot_pc_factor_mat_solver_type", "mumps")
     t = [ground.height ** 2 * tv / ground.c_v for tv in TV]
     t0 = time.perf_counter()
-    r = biot.solve(PETSc.COMM_SELF, fe.body_of(ground.as_material(), body, loading), t,
-                   [[0.0, body.height / 2]], cells=cells, steps=fe.STEPS)
+    db = PETSc.Options()
+    db.setValue("biot_pc_factor_mat_solver_type", "mumps")
+    try:
+        r = biot.solve(PETSc.COMM_SELF, fe.body_of(ground.as_material(), body, loading), t,
+                       [[0.0, body.height / 2]], cells=cells, steps=fe.STEPS)
+    finally:
+        db.delValue("biot_pc_factor_mat_solver_type")
     return {"cells": list(cells), "seconds": time.perf_counter() - t0, "steps": r.steps,
             "factorizations": r.factorizations, "settlement_mean_m": list(r.settlement)}
 
