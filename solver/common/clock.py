@@ -70,3 +70,18 @@ class Phases:
         s = self.seconds()
         parts = ", ".join(f"{phase} {s[phase]:.1f} s" for phase, _ in self.marks)
         return f"Wall time {s['total']:.1f} s: {parts}"
+
+
+_EVENTS = {}
+
+
+def log_event(name: str):
+    """PETSc log event ``name`` (what -log_view shows), registered once per process on first
+    use (PETSc is then initialised with the command line, which a registration at import
+    could precede)."""
+    from petsc4py import PETSc
+
+    ev = _EVENTS.get(name)
+    if ev is None:
+        ev = _EVENTS[name] = PETSc.Log.Event(name)
+    return ev

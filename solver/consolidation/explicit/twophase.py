@@ -61,6 +61,7 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
+from ...common.clock import log_event
 from ...common.errors import NumericalError
 from ...model import shapes
 from ...model.scene import top_forces, water_forces
@@ -90,17 +91,6 @@ def point_fields(scheme, layered: bool = False) -> dict:
         fields["vslow"] = 2
     return fields
 
-_EVENTS = {}
-
-
-def _event(name: str):
-    """PETSc log event ``name``, registered once per process on first use (PETSc is then
-    initialised with the command line, which a registration at import could precede)."""
-    ev = _EVENTS.get(name)
-    if ev is None:
-        ev = _EVENTS[name] = PETSc.Log.Event(name)
-    return ev
-
 
 def kernel_variant(element: str, scheme, layered: bool = False) -> tuple:
     """The compiled variant of the step's kernels for a cell type, scheme and material: the
@@ -116,7 +106,7 @@ def compile_kernels(element: str, scheme, layered: bool = False) -> dict:
     a cell type, scheme and material, once per process, timed by the MPMCompile log event;
     returns :func:`solver.consolidation.explicit.kernels.warm_up`'s record (seconds,
     compiled, loaded)."""
-    with _event("MPMCompile"):
+    with log_event("MPMCompile"):
         return kernels.warm_up(*kernel_variant(element, scheme, layered))
 
 
@@ -208,10 +198,10 @@ class TwoPhase:
         _, self._hrz, self._blend, self._layered = kernel_variant(grid.element, scheme,
                                                                  self.layered)
         self.compiled = compile_kernels(grid.element, scheme, self.layered)
-        self.ev_p2g = _event("MPMPointsToGrid")
-        self.ev_nodal = _event("MPMNodalUpdate")
-        self.ev_g2p = _event("MPMGridToPoints")
-        self.ev_migrate = _event("MPMMigrate")
+        self.ev_p2g = log_event("MPMPointsToGrid")
+        self.ev_nodal = log_event("MPMNodalUpdate")
+        self.ev_g2p = log_event("MPMGridToPoints")
+        self.ev_migrate = log_event("MPMMigrate")
 
     # -- set-up ----------------------------------------------------------------------------
     def _lumped(self, soil):

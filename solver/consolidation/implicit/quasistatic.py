@@ -35,6 +35,7 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
+from ...common.clock import log_event
 from ...common.errors import NumericalError, check_converged
 from ...model.scene import geostatic_fields, top_forces, water_forces
 from ...model.soil import G_REF
@@ -43,15 +44,6 @@ from .operators import Operators, per_point
 
 _BDF_NEW = 1 / (GAMMA * (2 - GAMMA))
 _BDF_OLD = (1 - GAMMA) ** 2 / (GAMMA * (2 - GAMMA))
-STEPS = 8      # steps per doubling of time (-mpm_implicit_steps)
-_EVENTS = {}
-
-
-def _event(name: str):
-    ev = _EVENTS.get(name)
-    if ev is None:
-        ev = _EVENTS[name] = PETSc.Log.Event(name)
-    return ev
 
 
 def step_ends(times, steps: int) -> np.ndarray:
@@ -76,7 +68,7 @@ class QuasiStatic:
         layer = points.get("layer").ravel() if "layer" in points.layout else \
             np.zeros(len(volume), dtype=int)
         self.x0 = x0.copy()
-        with _event("MPMImplicitAssembly"):
+        with log_event("MPMImplicitAssembly"):
             self.ops = ops = Operators(grid, x0, volume, layer, soil, stabilize)
         self.nen = ops.u.N.shape[1]
         g, H = loading.gravity, body.height
@@ -90,7 +82,7 @@ class QuasiStatic:
         self.y, self.F_q, self.F_g = (ops.da.createGlobalVec() for _ in range(3))
         self.loc = ops.da.createLocalVec()
         self.work = self.y.duplicate()
-        self._loads(body, soil, volume)
+        self._loads(body, soil, volume, layer)
         self.held_undrained = ops.rows(ops.mask(body.supports))
         self.held = ops.rows(ops.mask(body.supports, body.drained))
         self.d = self.y.duplicate()
@@ -115,7 +107,7 @@ class QuasiStatic:
         arr = self.y.getArray().reshape(-1, 3)
         arr[:, 2] = np.where(ops.unused()[:, 2], 0.0, slope * (H - y))
 
-    def _loads(self, body, soil, volume):
+    def _loads(self, body, soil, volume, layer):
         """F_q (the scene's load q on the top) and F_g (gravity's, see the module
         docstring), global Vecs (N per m depth)."""
         g, ops, loading = self.grid, self.ops, self.loading
@@ -127,7 +119,7 @@ class QuasiStatic:
         if loading.gravity > 0:
             loc = self.loc.getArray().reshape(-1, 3)
             u, B, n2 = ops.u, ops.B, 2 * self.nen
-            rho = per_point(soil, "density", self._layer())
+            rho = per_point(soil, "density", layer)
             weight = -(volume * rho * loading.gravity)[:, None] * u.N
             np.add.at(loc[:, 1], u.nodes, weight)
             # Q p_h - int B^T sigma'_0: the hydrostatic water and the initial effective stress.
@@ -143,15 +135,11 @@ class QuasiStatic:
             fg = self.F_g.getArray().reshape(-1, 3)
             fg[:, :2] += water[J, I]
 
-    def _layer(self):
-        return self.points.get("layer").ravel().astype(int) if "layer" in self.points.layout \
-            else np.zeros(self.points.n_local, dtype=int)
-
     # -- linear algebra ---------------------------------------------------------------------
     def _factor(self, c, held):
         self._release()
         t0 = time.perf_counter()
-        with _event("MPMImplicitFactor"):
+        with log_event("MPMImplicitFactor"):
             J = self.ops.J0.duplicate(copy=True)
             if c:
                 J.axpy(-c, self.ops.H, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
@@ -181,7 +169,7 @@ class QuasiStatic:
             self._factor(c, held)
             self.key = key
         t0 = time.perf_counter()
-        with _event("MPMImplicitSolve"):
+        with log_event("MPMImplicitSolve"):
             rhs.pointwiseMult(rhs, self.d)
             rhs.setValues(held, np.zeros(len(held)))
             rhs.assemble()
