@@ -161,7 +161,7 @@ def geostatic_state(points, body, soil, loading) -> None:
     if "gradp" in points.layout:
         # The pressure's gradient (Pa/m), for the corner projection's liquid force.
         with points.fields("gradp") as gradp:
-            gradp[:] = (0.0, -soil.rho_l * g)
+            gradp[:] = (0.0, -soil.rho_l * loading.gravity)
 
 
 def geostatic_fields(x0, body, soil, loading) -> tuple:

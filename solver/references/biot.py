@@ -60,6 +60,7 @@ import scipy.sparse as sp
 from petsc4py import PETSc
 
 from ..common.errors import InputError, NumericalError, check_converged
+from ..common.linalg import direct_solver
 from ..model import assembly, shapes
 from ..model.grid import Grid
 from ..model.soil import G_REF, constrained_modulus, elasticity
@@ -348,16 +349,9 @@ class _Solver:
         if c:
             J.axpy(-c, self.H, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
         J.zeroRowsColumns(fixed.astype(PETSc.IntType), diag=1.0)
-        ksp = PETSc.KSP().create(self.comm)
-        ksp.setOperators(J)
-        ksp.setType(PETSc.KSP.Type.PREONLY)
-        pc = ksp.getPC()
-        pc.setType(PETSc.PC.Type.LU)
         # J is quasi-definite (K and S + c H positive definite), so LU without pivoting is
         # stable in any ordering: PETSc's own, faster than MUMPS on 16 x 16 cells.
-        pc.setFactorSolverType("petsc")
-        ksp.setOptionsPrefix("biot_")
-        ksp.setFromOptions()
+        ksp = direct_solver(self.comm, J, "biot_", "petsc")
         try:
             ksp.setUp()
         except PETSc.Error as exc:

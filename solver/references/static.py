@@ -20,9 +20,9 @@ from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
-from petsc4py import PETSc
 
 from ..common.errors import check_converged
+from ..common.linalg import direct_solver
 from ..model import assembly, shapes
 from ..model.grid import Grid
 from ..model.points import place
@@ -98,14 +98,8 @@ def _top_displacement(grid, points, D, body, loading, name):
     rhs = sub.copy()
     f.restoreSubVector(free, sub)
     u = K.createVecRight()
-    ksp = PETSc.KSP().create(grid.comm)
+    ksp = direct_solver(grid.comm, K, "static_")
     try:
-        ksp.setOptionsPrefix("static_")
-        ksp.setOperators(K)
-        ksp.setType(PETSc.KSP.Type.PREONLY)
-        ksp.getPC().setType(PETSc.PC.Type.LU)
-        ksp.getPC().setFactorSolverType("mumps")
-        ksp.setFromOptions()
         ksp.solve(rhs, u)
         check_converged(ksp, f"the static {name} settlement (options -static_ksp_*, "
                              "-static_pc_*)")

@@ -37,6 +37,7 @@ from petsc4py import PETSc
 
 from ...common.clock import log_event
 from ...common.errors import NumericalError, check_converged
+from ...common.linalg import direct_solver
 from ...model.scene import geostatic_fields, top_forces, water_forces
 from ...model.soil import G_REF
 from ...references.biot import GAMMA, schedule as graded
@@ -145,14 +146,7 @@ class QuasiStatic:
                 J.axpy(-c, self.ops.H, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
             J.diagonalScale(self.d, self.d)
             J.zeroRowsColumns(held, diag=1.0)
-            ksp = PETSc.KSP().create(self.comm)
-            ksp.setOperators(J)
-            ksp.setType(PETSc.KSP.Type.PREONLY)
-            pc = ksp.getPC()
-            pc.setType(PETSc.PC.Type.LU)
-            pc.setFactorSolverType("mumps")
-            ksp.setOptionsPrefix("mpm_")
-            ksp.setFromOptions()
+            ksp = direct_solver(self.comm, J, "mpm_")
             try:
                 ksp.setUp()
             except PETSc.Error as exc:
