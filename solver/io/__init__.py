@@ -12,7 +12,8 @@ knows nothing of the analyses: they call it.
 - ``provenance``: versions, git commit and options for the summary;
 - ``failure``: what a run that stops early writes;
 - ``memory``: the memory a model needs, checked before anything is allocated;
-- ``launch``: the Python the executables run under (one that imports PETSc).
+- ``launch``: the Python the executables run under (one that imports PETSc);
+- ``records``: recorded base motions (a CSV of t and a, a PEER .AT2 file), read and checked.
 
 May import: references, model, common.
 

@@ -6,7 +6,8 @@ functions, and the matrices assembled over them.
 - ``points``: the material points, a PETSc DMSwarm;
 - ``assembly``: shape functions at the points, stiffness and mass matrices, lumping;
 - ``scene``: the scene as data (Body, Loading) and the models built from it;
-- ``soil``: the soil (Soil, Ground): its constituents and what follows from them.
+- ``soil``: the soil (Soil, Ground): its constituents and what follows from them;
+- ``motion``: base motions: the Ricker wavelet, a sine, a record resampled onto a run's times.
 
 May import: common.
 

@@ -6,7 +6,9 @@ never builds on them (a reference the model were made of would check nothing).
   consolidation;
 - ``layered``: layered columns: a layered rod's frequencies, consolidation by modes;
 - ``biot``: the finite-element reference: quasi-static Biot u-p, Taylor-Hood Q9/Q4;
-- ``static``: the undrained and final settlements by static solves.
+- ``static``: the undrained and final settlements by static solves;
+- ``site``: site response of a layered shear column on a rigid base or elastic rock: its
+  exact transfer functions and surface histories.
 
 May import: model, common.
 
