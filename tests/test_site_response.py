@@ -130,3 +130,49 @@ def test_bad_records_are_one_line_input_errors(tmp_path, text, message):
     assert "\n" not in str(err.value)
     with pytest.raises(InputError, match="no such file"):
         records.read(str(tmp_path / "missing.csv"))
+
+
+# -- spectra (solver/references/spectra.py) ---------------------------------------------------
+def test_fourier_amplitude_of_a_ricker_is_its_closed_form():
+    """|R(f)| = AMP 2 f^2 / (sqrt(pi) f0^3) e^(-f^2 / f0^2) (the Ricker's transform)."""
+    from solver.references.spectra import fourier_amplitude
+
+    dt, f0 = 1e-3, 5.0
+    a = ricker(np.arange(0, 4.0, dt), f0, 2.0)
+    f, amp = fourier_amplitude(a, dt, 1 << 14)
+    exact = 2.0 * 2 * f ** 2 / (np.sqrt(np.pi) * f0 ** 3) * np.exp(-(f / f0) ** 2)
+    assert np.max(np.abs(amp - exact)) < 1e-6 * exact.max()
+
+
+def test_konno_ohmachi_keeps_what_is_linear_in_log_frequency():
+    """Its weights are symmetric in log10 f: on a log-uniform grid a constant, and a line
+    in log10 f, come back unchanged away from the ends."""
+    from solver.references.spectra import konno_ohmachi
+
+    f = np.logspace(-1, 2, 601)
+    np.testing.assert_allclose(konno_ohmachi(f, np.full_like(f, 3.0)), 3.0, rtol=1e-12)
+    line = 1.0 + 2.0 * np.log10(f)
+    inner = (f > 0.5) & (f < 20)
+    np.testing.assert_allclose(konno_ohmachi(f, line)[inner], line[inner], atol=1e-10)
+
+
+def test_pseudo_acceleration_is_the_oscillators_exact_peak():
+    """Against the oscillator integrated here by SciPy to 1e-11 (a random ground motion,
+    linear between samples): within 1e-6; a stiff oscillator's PSA is the PGA."""
+    from scipy.integrate import solve_ivp
+
+    from solver.references.spectra import pseudo_acceleration
+
+    rng = np.random.default_rng(1)
+    dt = 0.01
+    a = rng.standard_normal(300)
+    t = np.arange(300) * dt
+    for T in (0.05, 0.3, 2.0):
+        w, z = 2 * np.pi / T, 0.05
+        sol = solve_ivp(lambda s, y: [y[1], -np.interp(s, t, a) - 2 * z * w * y[1] - w * w * y[0]],
+                        (0, t[-1]), [0.0, 0.0], t_eval=t, rtol=1e-11, atol=1e-13,
+                        max_step=dt / 4)
+        assert pseudo_acceleration(a, dt, [T])[0] == pytest.approx(
+            w * w * np.max(np.abs(sol.y[0])), rel=1e-6)
+    smooth = ricker(np.arange(0, 3.0, 1e-3), 2.0, 1.5)
+    assert pseudo_acceleration(smooth, 1e-3, [0.01])[0] == pytest.approx(1.5, rel=0.01)

@@ -8,7 +8,8 @@ never builds on them (a reference the model were made of would check nothing).
 - ``biot``: the finite-element reference: quasi-static Biot u-p, Taylor-Hood Q9/Q4;
 - ``static``: the undrained and final settlements by static solves;
 - ``site``: site response of a layered shear column on a rigid base or elastic rock: its
-  exact transfer functions and surface histories.
+  exact transfer functions and surface histories;
+- ``spectra``: Fourier amplitudes, Konno-Ohmachi smoothing, pseudo-spectral acceleration.
 
 May import: model, common.
 
