@@ -38,7 +38,7 @@ from petsc4py import PETSc
 from ...common.clock import log_event
 from ...common.errors import NumericalError, check_converged
 from ...common.linalg import direct_solver
-from ...model.scene import geostatic_fields, top_forces, water_forces
+from ...model.scene import destroy, geostatic_fields, top_forces, water_forces
 from ...model.soil import G_REF
 from ...references.biot import GAMMA, schedule as graded
 from .operators import Operators, per_point
@@ -295,13 +295,10 @@ class QuasiStatic:
                 "solve_seconds": self.solve_seconds}
 
     def _release(self):
-        for obj in (self.ksp, self.J):
-            if obj is not None:
-                obj.destroy()
+        destroy(self.ksp, self.J)
         self.ksp = self.J = None
 
     def destroy(self):
+        """Free the factorization, the operators and the vectors."""
         self._release()
-        for obj in (self.y, self.F_q, self.F_g, self.loc, self.work, self.d):
-            obj.destroy()
-        self.ops.destroy()
+        destroy(self.y, self.F_q, self.F_g, self.loc, self.work, self.d, self.ops)
