@@ -221,40 +221,41 @@ def test_auto_picks_the_implicit_scheme_for_the_strip_and_honours_an_explicit_op
     assert given[0] == "explicit" and "-mpm_dt" in given[1]
 
 
-def _auto(args):
-    from solver.consolidation.explicit import inertia
-    from solver.consolidation.explicit.scheme import Scheme
+def test_auto_counts_the_work_each_scheme_does(cli, tmp_path):
+    """What -mpm_scheme auto weighs: the implicit solves it counts are the run's exactly; the
+    explicit steps it counts (the closed-form criteria's) are a lower bound of the run's,
+    within a factor 2 (its discrete limit and safety factor)."""
+    from solver.consolidation import reporting
 
+    args = ["-mpm_cells", "2,20", "-mpm_Tv_end", "0.2", "-mpm_Tv_report", "0.05,0.2"]
     values = {"analysis": "consolidation"}
     for i in range(0, len(args), 2):
         values[args[i][5:]] = args[i + 1]
     p = options.from_mapping(values)
+    work = choice.costs(choice.Request.from_options(p), *_scene_of(p), reporting.ISOCHRONES)
+    base = ["-mpm_analysis", "consolidation", "-mpm_figures", "0", *args]
+    implicit = check_ok(cli(base + ["-mpm_scheme", "implicit"], out_dir=tmp_path / "i"))
+    assert work["implicit_solves"] == implicit["implicit"]["solves"]
+    explicit = check_ok(cli(base + ["-mpm_scheme", "explicit"], out_dir=tmp_path / "e"))
+    assert work["explicit_steps"] <= explicit["steps"] < 2 * work["explicit_steps"]
+    assert work["points"] == explicit["n_points"]
+
+
+def _scene_of(p):
+    """(soil, body, the explicit Scheme, References) of the options p."""
+    from solver.consolidation.explicit import inertia
+    from solver.consolidation.explicit.scheme import Scheme
+
     soil = Ground.from_options(p).as_material()
     body, loading = Body.from_options(p), Loading.from_options(p)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
                                  inertia.slowest_period(PETSc.COMM_SELF, body, soil, loading))
-    return choice.choose(p, soil, body, scheme, References.of(soil, loading, body))
+    return soil, body, scheme, References.of(soil, loading, body)
 
 
-def test_footing_benchmark_runs_small_and_meets_the_fe(tmp_path):
-    """scripts/benchmark --footing on 32 x 16 cells, one rank, without the explicit timing:
-    the implicit run's mean settlement within 1 % of the FE at twice its resolution
-    (measured: 0.23 %), and the FE on half the cells beside it; results written."""
-    import json
-    import sys
-
-    from conftest import REPO
-
-    sys.path.insert(0, str(REPO / "scripts"))
-    try:
-        import footing_benchmark
-    finally:
-        sys.path.remove(str(REPO / "scripts"))
-    code = footing_benchmark.main(["--cells", "32,16", "--ranks", "1", "--explicit-seconds",
-                                   "0", "--out", str(tmp_path)])
-    assert code == 0
-    result = json.loads((tmp_path / "footing-benchmark.json").read_text())
-    assert result["implicit"]["points"] == 2048
-    assert max(abs(e) for e in result["errors_pct"]) < 1.0
-    assert result["fe_half"]["cells"] == [16, 8]
-    assert (tmp_path / "footing-benchmark.txt").read_text().startswith("Footing benchmark")
+def _auto(args):
+    values = {"analysis": "consolidation"}
+    for i in range(0, len(args), 2):
+        values[args[i][5:]] = args[i + 1]
+    p = options.from_mapping(values)
+    return choice.choose(choice.Request.from_options(p), *_scene_of(p))

@@ -25,7 +25,7 @@ from . import reporting
 from .explicit import inertia, timestep
 from .explicit.inertia import MAX_STEPS
 from .implicit import choice
-from .implicit.quasistatic import step_ends
+from .implicit.quasistatic import graded_steps, named_times
 from .plan import Limits, Schedule
 
 
@@ -34,7 +34,7 @@ def method(comm, req, soil, body, scheme, refs, restart_state=None) -> str:
     and the notes on a scene file's options of the other scheme; a restart continues its
     checkpoint's (``restart_state``)."""
     if restart_state is None:
-        chosen, why = choice.choose(req, soil, body, scheme, refs)
+        chosen, why = choice.choose(req, soil, body, scheme, refs, reporting.ISOCHRONES)
     else:
         chosen = restart_state.get("method", "explicit")
         why = f"Scheme: {chosen} (the checkpoint's)"
@@ -78,12 +78,8 @@ def implicit_schedule(req, refs, state) -> Schedule:
     """The implicit scheme's graded steps through the report and isochrone times to T_v =
     the end; a restart keeps the steps it took (``state.times``) and grades on from
     its last, so that the same options continue exactly."""
-    named = {tv: refs.time(tv) for tv in sorted(set(reporting.ISOCHRONES) | set(req.Tv_report))
-             if tv <= req.Tv_end + 1e-12}
-    named[req.Tv_end] = refs.time(req.Tv_end)
-    # A load ramp's end is a step's end too: the load's kink falls between steps.
-    ramp = [req.ramp] if 0 < req.ramp < named[req.Tv_end] else []
-    ends = step_ends(list(named.values()) + ramp, req.implicit_steps)
+    named = named_times(refs.time, req.Tv_report, req.Tv_end, reporting.ISOCHRONES)
+    ends = graded_steps(named, req.implicit_steps, req.ramp)
     done = list(state.times[:state.step])
     if done:
         ends = np.r_[done, ends[ends > done[-1] * (1 + 1e-12)]]

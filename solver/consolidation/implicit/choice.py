@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from ...common.errors import InputError
 from ...io.options import EXPLICIT_ONLY, IMPLICIT_ONLY
 from ..explicit import inertia
-from .quasistatic import step_ends
+from .quasistatic import graded_steps, named_times
 
 TOLERANCE = inertia.TOLERANCE
 # Seconds per material point and explicit step (the v-w kernels, one rank: M3-Q4, 136,250
@@ -94,21 +94,25 @@ def notes(req: Request, method: str) -> list:
             + " ".join(f"-mpm_{n}" for n in unread)]
 
 
-def costs(req: Request, soil, body, scheme, refs) -> tuple:
-    """(explicit, implicit) estimated seconds of the scene's steps on one rank."""
+def costs(req: Request, soil, body, scheme, refs, isochrones=()) -> dict:
+    """The work of each scheme for the scene, and its estimated seconds on one rank: the
+    explicit step's steps (the closed-form criteria's, a lower bound: its discrete limit can
+    only shorten dt) and points; the implicit scheme's solves (one for the undrained start,
+    two per step of its schedule: exactly the run's), unknowns (three per node of the
+    DMDA)."""
     n_points = body.cells[0] * body.cells[1] * body.ppc ** 2
     steps = inertia.estimated_steps(soil, body, req.dt, req.dt_safety, req.Tv_end, scheme.drag,
                                     scheme.mass_scaling)
     order = 1 if body.element == "q4" else 2
-    nodes = (order * body.cells[0] + 1) * (order * body.cells[1] + 1)
-    corners = (body.cells[0] + 1) * (body.cells[1] + 1)
-    unknowns = 2 * nodes + corners
-    asked = [refs.time(t) for t in req.Tv_report] + [refs.time(req.Tv_end)]
-    solves = 2 * len(step_ends(asked, req.implicit_steps)) + 2
-    return steps * n_points * EXPLICIT_S, solves * unknowns * IMPLICIT_S
+    unknowns = 3 * (order * body.cells[0] + 1) * (order * body.cells[1] + 1)
+    named = named_times(refs.time, req.Tv_report, req.Tv_end, isochrones)
+    solves = 2 * len(graded_steps(named, req.implicit_steps, req.ramp)) + 1
+    return {"explicit_steps": steps, "points": n_points, "implicit_solves": solves,
+            "unknowns": unknowns, "explicit_s": steps * n_points * EXPLICIT_S,
+            "implicit_s": solves * unknowns * IMPLICIT_S}
 
 
-def choose(req: Request, soil, body, scheme, refs) -> tuple:
+def choose(req: Request, soil, body, scheme, refs, isochrones=()) -> tuple:
     """(explicit | implicit, the line that says why)."""
     if req.scheme != "auto":
         return req.scheme, f"Scheme: {req.scheme} (-mpm_scheme {req.scheme})"
@@ -119,7 +123,8 @@ def choose(req: Request, soil, body, scheme, refs) -> tuple:
     reg = inertia.regime(soil, body.height, min(req.Tv_report), scheme.damping,
                          scheme.fast_damping, scheme.mass_scaling, scheme.wave_period)
     error = max(reg["wave_error"], reg["drag_lag_error"])
-    explicit_s, implicit_s = costs(req, soil, body, scheme, refs)
+    work = costs(req, soil, body, scheme, refs, isochrones)
+    explicit_s, implicit_s = work["explicit_s"], work["implicit_s"]
     cost = f"estimated {explicit_s:.3g} s explicit against {implicit_s:.3g} s implicit"
     if error <= TOLERANCE and explicit_s < implicit_s:
         return "explicit", (f"Scheme: explicit (-mpm_scheme auto: its inertia within "

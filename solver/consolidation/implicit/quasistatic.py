@@ -56,6 +56,22 @@ def step_ends(times, steps: int) -> np.ndarray:
     return graded(asked, steps, asked[0] / steps ** 4)
 
 
+def named_times(time, Tv_report, Tv_end: float, isochrones=()) -> dict:
+    """{T_v: t (s)}: the report and isochrone times up to the end T_v and the end itself,
+    ``time(T_v)`` the scene's time (s) of a time factor."""
+    named = {tv: time(tv) for tv in sorted(set(isochrones) | set(Tv_report))
+             if tv <= Tv_end + 1e-12}
+    named[Tv_end] = time(Tv_end)
+    return named
+
+
+def graded_steps(named: dict, steps: int, ramp: float = 0.0) -> np.ndarray:
+    """The step ends (s) through the times of :func:`named_times`, and a load ramp's end
+    (s; 0: none) where it falls before the last: the load's kink then falls between steps."""
+    end = max(named.values())
+    return step_ends(list(named.values()) + ([ramp] if 0 < ramp < end else []), steps)
+
+
 class QuasiStatic:
     """The implicit scheme's state and solver on one grid; the time loop calls
     :meth:`start` once (t = 0+) and :meth:`step` per step; both write the points' fields.
