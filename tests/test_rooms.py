@@ -25,7 +25,7 @@ REPO = Path(__file__).resolve().parents[1]
 SOLVER = REPO / "solver"
 ROOMS = ("common", "model", "references", "io", "eigen", "consolidation.explicit",
          "consolidation.implicit",
-         "consolidation", "studies")
+         "consolidation", "dynamic", "studies")
 CLI = "__main__"
 DRIVERS = ("eigen.driver", "consolidation.driver")
 

@@ -25,3 +25,11 @@ def resample(t_rec, a_rec, t) -> tuple:
     t = np.asarray(t, dtype=float)
     a = np.interp(t, t_rec, a_rec, left=0.0, right=0.0)
     return a, bool(t.size and t[-1] > t_rec[-1] * (1 + 1e-12))
+
+
+def ricker_velocity(t, f0: float, amp: float) -> np.ndarray:
+    """The velocity (m/s) of :func:`ricker` from rest at t = 0: amp (tau e^-x + t0 e^-x0),
+    tau = t - t0, t0 = 1.5 / f0, x = (pi f0 tau)^2, x0 its value at t = 0."""
+    t0 = 1.5 / f0
+    tau = np.asarray(t, dtype=float) - t0
+    return amp * (tau * np.exp(-(np.pi * f0 * tau) ** 2) + t0 * np.exp(-(1.5 * np.pi) ** 2))

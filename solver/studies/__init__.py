@@ -3,10 +3,10 @@ solver`` process, and where their results go.
 
 - ``study``: batches of solver runs for the scripts, and their destinations.
 
-May import: consolidation, consolidation.implicit, consolidation.explicit, eigen, io, references, model, common.
+May import: dynamic, consolidation, consolidation.implicit, consolidation.explicit, eigen, io, references, model, common.
 
 The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
-consolidation.implicit, consolidation, studies; then the command line (solver/__main__.py).
-A module imports its own room and the rooms before it, never one after it
-(tests/test_rooms.py).
+consolidation.implicit, consolidation, dynamic, studies; then the command line
+(solver/__main__.py). A module imports its own room and the rooms before it, never one after
+it (tests/test_rooms.py).
 """
