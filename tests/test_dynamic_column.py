@@ -27,13 +27,10 @@ def _soil():
 
 
 def _run(shaking, f0, t_end, cells=(1, 100), comm=None):
-    body = Body(element="q4", cells=cells, size=(1.0, H), ppc=2)
-    model = ShakenBody(comm or PETSc.COMM_WORLD, body, _soil(), shaking)
-    try:
-        return model.run(t_end, lambda t: ricker_velocity(t, f0, 1.0),
-                         lambda t: ricker(t, f0, 1.0))
-    finally:
-        model.destroy()
+    """The uniform layer shaken by an f0 Hz Ricker of 1 m/s2 to t_end (s)."""
+    from solver.model.soil import Ground
+
+    return _layered_run(Ground.uniform(_soil(), H), shaking, f0, t_end, cells, comm)
 
 
 def test_layer_on_rock_follows_the_exact_response():
@@ -104,9 +101,10 @@ def _ground(thickness, Vs, rho):
     return Ground(tuple(thickness), soils)
 
 
-def _layered_run(ground, shaking, f0, t_end, cells):
+def _layered_run(ground, shaking, f0, t_end, cells, comm=None):
+    """``ground`` shaken by an f0 Hz Ricker of 1 m/s2 to t_end (s) on ``cells`` Q4 cells."""
     body = Body(element="q4", cells=cells, size=(1.0, ground.height), ppc=2)
-    model = ShakenBody(PETSc.COMM_WORLD, body, ground, shaking)
+    model = ShakenBody(comm or PETSc.COMM_WORLD, body, ground, shaking)
     try:
         return model.run(t_end, lambda t: ricker_velocity(t, f0, 1.0),
                          lambda t: ricker(t, f0, 1.0))
