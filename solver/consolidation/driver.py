@@ -337,9 +337,9 @@ def _scheme_words(plan) -> str:
                 + (", pressure projection (Dohrmann-Bochev)" if plan.stabilize else "")
                 + ", TR-BDF2, LU (MUMPS)")
     return (f"Scheme: {scheme.kinematics} kinematics, lumping {scheme.lumping}, "
-                    f"liquid basis {scheme.liquid_basis}, pressure projection "
-                    f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
-                    f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})"
+            f"liquid basis {scheme.liquid_basis}, pressure projection "
+            f"{scheme.pressure_projection}, {scheme.drag} drag, mass scaling "
+            f"S = {scheme.mass_scaling:.4g} ({scheme.mass_scaling_choice})"
             + (f", FLIP fraction {scheme.flip:g}" if scheme.flip != 1 else ""))
 
 

@@ -211,8 +211,9 @@ def probes(points, body, axis: float, monitor: tuple, mpi, ends_x=()) -> Probes:
 def times(schedule, time_factor) -> tuple:
     """(t (s), T_v): the times the FE is asked, the run's report and isochrone steps'
     (exactly the run's times, with the T_v the run names them by) and DOUBLINGS halvings
-    of time before the first, down to the run's first sample (10 steps): the steps biot's
-    schedule takes anyway (T_v from ``time_factor(t)``)."""
+    of time before the first, down to the run's first sample (10 explicit steps, or the
+    implicit scheme's first step): the steps biot's schedule takes anyway (T_v from
+    ``time_factor(t)``)."""
     named = {**schedule.iso_steps, **schedule.report_steps}
     steps = sorted(k for k in named if k > 0)
     first = schedule.time(steps[0])

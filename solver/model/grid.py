@@ -139,18 +139,26 @@ class Grid:
         I, J = np.meshgrid(np.arange(self.nodes[0]), np.arange(self.nodes[1]), indexing="xy")
         return np.stack([I.ravel() * hx, J.ravel() * hy], axis=-1)
 
+    def owned_lattice(self):
+        """Lattice indices (i, j) of this rank's owned nodes, in global Vec order."""
+        I, J = np.meshgrid(np.arange(self.xs, self.xe), np.arange(self.ys, self.ye),
+                           indexing="xy")
+        return I.ravel(), J.ravel()
+
+    def owned_sides(self) -> dict:
+        """{side: mask over the owned nodes (global Vec order) of those on that side}."""
+        I, J = self.owned_lattice()
+        return {"left": I == 0, "right": I == self.nodes[0] - 1,
+                "bottom": J == 0, "top": J == self.nodes[1] - 1}
+
     def constrained_mask(self, bcs):
         """Boolean mask over the owned DOFs (global Vec order) of fixed displacements.
 
         ``bcs`` maps a side (left, right, bottom, top) to the fixed components ('x', 'y',
         'xy' or 'none').
         """
-        I, J = np.meshgrid(np.arange(self.xs, self.xe), np.arange(self.ys, self.ye),
-                           indexing="xy")
-        I, J = I.ravel(), J.ravel()
-        sides = {"left": I == 0, "right": I == self.nodes[0] - 1,
-                 "bottom": J == 0, "top": J == self.nodes[1] - 1}
-        fixed = np.zeros((I.size, 2), dtype=bool)
+        sides = self.owned_sides()
+        fixed = np.zeros((sides["left"].size, 2), dtype=bool)
         for side, comps in bcs.items():
             for c, name in enumerate("xy"):
                 if name in comps:

@@ -128,28 +128,20 @@ class Operators:
                                     addv=PETSc.InsertMode.ADD_VALUES)
             A.assemble()
 
-    def owned_nodes(self):
-        """Lattice indices (i, j) of this rank's owned nodes, in global Vec order."""
-        g = self.grid
-        I, J = np.meshgrid(np.arange(g.xs, g.xe), np.arange(g.ys, g.ye), indexing="xy")
-        return I.ravel(), J.ravel()
-
     def mask(self, bcs, drained=()) -> np.ndarray:
         """Boolean mask (n_owned, 3) of the held DOFs: the supports ``bcs`` ({side:
         components}), the pressure on the ``drained`` sides, and the unused DOFs."""
         g = self.grid
         held = self.unused()
         held[:, :2] |= g.constrained_mask(bcs).reshape(-1, 2)
-        I, J = self.owned_nodes()
-        sides = {"left": I == 0, "right": I == g.nodes[0] - 1,
-                 "bottom": J == 0, "top": J == g.nodes[1] - 1}
+        sides = g.owned_sides()
         for side in drained:
             held[sides[side], 2] = True
         return held
 
     def unused(self) -> np.ndarray:
         """(n_owned, 3): DOFs no basis function has (see the module docstring)."""
-        I, J = self.owned_nodes()
+        I, J = self.grid.owned_lattice()
         order = self.grid.order
         held = np.zeros((len(I), 3), dtype=bool)
         held[:, 2] = (I % order != 0) | (J % order != 0)

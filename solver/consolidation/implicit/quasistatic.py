@@ -96,9 +96,10 @@ class QuasiStatic:
         # The initial effective stress, from the scene (a restart's points hold later ones).
         self.sigma0 = geostatic_fields(x0, body, soil, loading)[1] if loading.geostatic \
             else np.zeros((len(volume), 3))
-        self.y, self.F_q, self.F_g = (ops.da.createGlobalVec() for _ in range(3))
+        # The state, the load parts and the step's work vectors, made once.
+        self.y, self.F_q, self.F_g, self.work, self.rhs, self.tmp, self.y_tr = (
+            ops.da.createGlobalVec() for _ in range(7))
         self.loc = ops.da.createLocalVec()
-        self.work = self.y.duplicate()
         self._loads(body, soil, volume, layer)
         self.held_undrained = ops.rows(ops.mask(body.supports))
         self.held = ops.rows(ops.mask(body.supports, body.drained))
@@ -112,23 +113,22 @@ class QuasiStatic:
         self.solve_seconds = self.factor_seconds = 0.0
         self.u_prev = np.zeros((len(volume), 2))
         if not loading.geostatic and g > 0:
-            self._set_excess_nodes(-soil.soils[0].rho_l * g)
+            self._start_at_zero_pressure()
 
     # -- set-up ---------------------------------------------------------------------------
-    def _set_excess_nodes(self, slope):
-        """p_e = slope (H - y) at the corner nodes (Pa): a fresh deposit's -p_h."""
-        g, ops = self.grid, self.ops
-        I, J = ops.owned_nodes()
-        H = g.size[1]
+    def _start_at_zero_pressure(self):
+        """p_e = -p_h = -rho_l g (H - y) at the corner nodes (Pa): a fresh deposit's p = 0."""
+        g = self.grid
+        _, J = g.owned_lattice()
         y = J * g.h[1] / g.order
         arr = self.y.getArray().reshape(-1, 3)
-        arr[:, 2] = np.where(ops.unused()[:, 2], 0.0, slope * (H - y))
+        arr[:, 2] = np.where(self.ops.unused()[:, 2], 0.0, -self.gamma_h * (g.size[1] - y))
 
     def _loads(self, body, soil, volume, layer):
         """F_q (the scene's load q on the top) and F_g (gravity's, see the module
         docstring), global Vecs (N per m depth)."""
         g, ops, loading = self.grid, self.ops, self.loading
-        I, J = ops.owned_nodes()
+        I, J = g.owned_lattice()
         top = J == g.nodes[1] - 1
         fq = self.F_q.getArray().reshape(-1, 3)
         fq[top, 1] = -top_forces(g, loading)[I[top]]
@@ -191,31 +191,23 @@ class QuasiStatic:
         self.solve_seconds += time.perf_counter() - t0
         return self.work
 
-    def _load(self, t):
-        """F(t) into a new Vec."""
-        f = self.F_g.copy()
-        f.axpy(self.loading.factor(t), self.F_q)
-        return f
-
     def _rhs(self, t, y_store, c=0.0, y_flow=None):
-        """F(t) - M y_store + c H y_flow."""
-        r = self._load(t)
-        m = self.y.duplicate()
+        """F(t) - M y_store + c H y_flow, in the work vector ``rhs``."""
+        r, m = self.rhs, self.tmp
+        self.F_g.copy(r)
+        r.axpy(self.loading.factor(t), self.F_q)
         self.ops.M.mult(y_store, m)
         r.axpy(-1.0, m)
         if c:
             self.ops.H.mult(y_flow, m)
             r.axpy(c, m)
-        m.destroy()
         return r
 
     # -- the scheme ---------------------------------------------------------------------------
     def start(self):
         """The undrained state at t = 0+ (water has not moved; the drained sides' p free)."""
-        rhs = self._rhs(0.0, self.y)
         self.key = None
-        self._solve(0.0, self.held_undrained, rhs).copy(self.y)
-        rhs.destroy()
+        self._solve(0.0, self.held_undrained, self._rhs(0.0, self.y)).copy(self.y)
         self.to_points(None)
 
     def step(self, t0: float, t1: float):
@@ -225,16 +217,12 @@ class QuasiStatic:
         if self.h_used is None or abs(h - self.h_used) > 1e-9 * h:
             self.h_used = h
         c = GAMMA * self.h_used / 2
-        rhs = self._rhs(t0 + GAMMA * h, self.y, c, self.y)
-        y_tr = self._solve(c, self.held, rhs).copy()
-        rhs.destroy()
-        mix = y_tr.copy()
-        mix.scale(_BDF_NEW)
-        mix.axpy(-_BDF_OLD, self.y)
-        rhs = self._rhs(t1, mix)
-        self._solve(c, self.held, rhs).copy(self.y)
-        for v in (rhs, mix, y_tr):
-            v.destroy()
+        y_tr = self.y_tr
+        self._solve(c, self.held, self._rhs(t0 + GAMMA * h, self.y, c, self.y)).copy(y_tr)
+        # The BDF2 stage's storage argument, (y_tr - (1 - gamma)^2 y) / (gamma (2 - gamma)).
+        y_tr.scale(_BDF_NEW)
+        y_tr.axpy(-_BDF_OLD, self.y)
+        self._solve(c, self.held, self._rhs(t1, y_tr)).copy(self.y)
         self.steps += 1
         self.to_points(h)
 
@@ -317,4 +305,5 @@ class QuasiStatic:
     def destroy(self):
         """Free the factorization, the operators and the vectors."""
         self._release()
-        destroy(self.y, self.F_q, self.F_g, self.loc, self.work, self.d, self.ops)
+        destroy(self.y, self.F_q, self.F_g, self.work, self.rhs, self.tmp, self.y_tr, self.loc,
+                self.d, self.ops)
