@@ -192,6 +192,10 @@ def _run(argv, origins, scene_analysis, comm) -> int:
             from .eigen import driver as eigen
 
             eigen.run(params, comm)
+        elif params.analysis == "dynamic":
+            from .dynamic import driver as dynamic
+
+            dynamic.run(params, comm)
         else:
             from .consolidation import driver as consolidation
 

@@ -33,6 +33,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..common.errors import InputError
+from ..common.linalg import direct_solver
 from ..model import scene
 from ..model.scene import Body, Loading, top_forces
 
@@ -62,12 +63,14 @@ class Shaking:
         if self.a0 < 0 or self.a1 < 0:
             raise InputError("Rayleigh coefficients must be >= 0")
 
-    def supports(self) -> tuple:
-        """The sides' fixed components: the other direction held everywhere on the sides,
-        the base fixed in both (rigid) or in the other direction only (compliant)."""
+    def supports(self, periodic: bool = False) -> tuple:
+        """The sides' fixed components: the other direction held everywhere on the sides
+        (free where they are tied, ``periodic``), the base fixed in both (rigid) or in the
+        other direction only (compliant)."""
         other = "y" if self.direction == "x" else "x"
         bottom = "xy" if self.base == "rigid" else other
-        return (("left", other), ("right", other), ("bottom", bottom), ("top", "none"))
+        side = "none" if periodic else other
+        return (("left", side), ("right", side), ("bottom", bottom), ("top", "none"))
 
 
 def rayleigh(xi: float, f1: float, f2: float) -> tuple:
@@ -78,32 +81,46 @@ def rayleigh(xi: float, f1: float, f2: float) -> tuple:
 
 class ShakenBody:
     """The body of ``body`` (its grid, points, cells; its supports replaced by
-    :meth:`Shaking.supports`) made of ``soil`` on ``comm``, shaken as ``shaking`` says.
-    :meth:`run` steps it. The caller destroys it."""
+    :meth:`Shaking.supports`) made of ``soil`` on ``comm``, shaken as ``shaking`` says;
+    ``periodic`` ties each right-side node to the left-side node of its row (the body moves
+    as a column of any width), ``load`` (Pa) presses on the top from t = 0 (``loading``'s
+    extent). :meth:`run` steps it, or :meth:`start` and :meth:`step` one step at a time.
+    The caller destroys it."""
 
-    def __init__(self, comm, body: Body, soil, shaking: Shaking):
+    def __init__(self, comm, body: Body, soil, shaking: Shaking, periodic: bool = False,
+                 loading: Loading | None = None):
         self.shaking = shaking
-        body = dataclasses.replace(body, bcs=shaking.supports())
+        body = dataclasses.replace(body, bcs=shaking.supports(periodic))
         self.body = body
-        self.grid, self.points, self.K, M, self.free = scene.build(comm, body, soil)
-        self.m = self._lumped(M)
+        self.grid, self.points, K, M, self.free = scene.build(comm, body, soil)
+        m = self._lumped(M, K)
         M.destroy()
         idx = self.free.getIndices()
-        comp = 0 if shaking.direction == "x" else 1
+        self.comp = idx % 2
         node = idx // 2
         nx = self.grid.nodes[0]
-        j, i = node // nx, node % nx
-        along = (idx % 2) == comp
-        self.top = along & (j == self.grid.nodes[1] - 1)
-        self.along = along
-        self.base = along & (j == 0)
-        self.c = np.zeros(len(idx))
+        self.row, i = node // nx, node % nx
+        self.along_full = self.comp == (0 if shaking.direction == "x" else 1)
+        c = np.zeros(len(idx))
+        base = self.along_full & (self.row == 0)
         if shaking.base == "compliant":
             share = top_forces(self.grid, Loading(load=1.0))   # int N ds of each base node
-            self.c[self.base] = shaking.rock_rho * shaking.rock_speed * share[i[self.base]]
+            c[base] = shaking.rock_rho * shaking.rock_speed * share[i[base]]
+        f = np.zeros(len(idx))
+        if loading is not None and loading.load > 0:
+            top = (self.comp == 1) & (self.row == self.grid.nodes[1] - 1)
+            f[top] = -top_forces(self.grid, loading)[i[top]]
+        self.T = _ties(K, idx, nx) if periodic else None
+        self.K = K.PtAP(self.T) if periodic else K
+        if periodic:
+            K.destroy()
+        self.m, self.c, self.f = (self._reduce(a) for a in (m, c, f))
+        self.along = self._reduce(self.along_full.astype(float)) > 0
         self.dt = self._stable_step()
+        self.solver = None
+        self.u = self.v = None
 
-    def _lumped(self, M) -> np.ndarray:
+    def _lumped(self, M, K) -> np.ndarray:
         """HRZ: M's diagonal scaled so that each direction keeps the body's mass."""
         d = M.getDiagonal()
         total = M.createVecLeft()
@@ -111,20 +128,93 @@ class ShakenBody:
         ones.set(1.0)
         M.mult(ones, total)
         diag, rows = d.getArray().copy(), total.getArray().copy()
-        comm = self.K.getComm().tompi4py()
+        comm = K.getComm().tompi4py()
         scale = comm.allreduce(float(rows.sum())) / comm.allreduce(float(diag.sum()))
         for v in (d, total, ones):
             v.destroy()
         return diag * scale
+
+    def _reduce(self, a: np.ndarray) -> np.ndarray:
+        """A nodal quantity summed onto the tied DOFs (T^T a): masses, dashpots, forces."""
+        if self.T is None:
+            return a
+        red, full = self.T.createVecs()
+        full.setArray(a)
+        self.T.multTranspose(full, red)
+        out = red.getArray().copy()
+        full.destroy()
+        red.destroy()
+        return out
+
+    def expand(self, vec, out) -> np.ndarray:
+        """The free DOFs' values (this rank's, natural DOF numbers in ``self.free``) of the
+        reduced Vec ``vec``, through ``out`` (a Vec of the free DOFs, or None untied)."""
+        if self.T is None:
+            return vec.getArray()
+        self.T.mult(vec, out)
+        return out.getArray()
 
     def _stable_step(self) -> float:
         ai, _, av = self.K.getValuesCSR()
         rowsum = np.add.reduceat(np.abs(av), ai[:-1]) if len(av) else np.zeros(0)
         local = float(np.max(rowsum / self.m)) if len(rowsum) else 0.0
         w = math.sqrt(self.K.getComm().tompi4py().allreduce(local, op=_max()))
-        sh = self.shaking
-        xi = sh.a0 / (2 * w) + sh.a1 * w / 2
+        # The stiffness-proportional damping is taken implicitly (:meth:`step`): only the
+        # mass-proportional part lowers the limit.
+        xi = self.shaking.a0 / (2 * w)
         return SAFETY * 2 / w * (math.sqrt(1 + xi * xi) - xi)
+
+    def start(self, dt: float, state=None) -> None:
+        """Set the step dt (s) and the state: at rest, or ``state`` (u, v: this rank's
+        reduced values, :meth:`state`)."""
+        self.dt = dt
+        self.u, self.v, self.r, self.Kv = (self.K.createVecRight() for _ in range(4))
+        if state is not None:
+            self.u.setArray(state[0])
+            self.v.setArray(state[1])
+        sh = self.shaking
+        if sh.a1:
+            # m v' + dt a1 K (v' + v) / 2 = ...: Crank-Nicolson in the stiffness-proportional
+            # damping, whose explicit limit the grid's fastest mode would set (xi ~ a1 w / 2).
+            A = self.K.copy()
+            A.scale(dt * sh.a1 / 2)
+            diag = A.createVecLeft()
+            diag.setArray(self.m + dt * self.c)
+            A.setDiagonal(diag, addv=PETSc.InsertMode.ADD_VALUES)
+            diag.destroy()
+            package = "petsc" if self.K.getComm().getSize() == 1 else "mumps"
+            self.solver = direct_solver(self.K.getComm(), A, "mpm_", package)
+            A.destroy()
+
+    def step(self, t: float, velocity, acceleration) -> np.ndarray:
+        """One step from t (s) under the base motion (functions of time: the base's own
+        for a rigid base, the outcrop's for a compliant one); returns the acceleration at
+        t (this rank's reduced values, relative to the base when it is rigid)."""
+        sh, m, c, dt = self.shaking, self.m, self.c, self.dt
+        ua, va = self.u.getArray(), self.v.getArray()
+        # The forces at t move v from t - dt/2 to t + dt/2: the acceleration (v' - v) / dt
+        # is that of t.
+        self.K.mult(self.u, self.r)
+        fa = self.f - self.r.getArray()
+        if sh.base == "rigid":
+            fa[self.along] -= m[self.along] * acceleration(t)
+        fa += c * velocity(t + dt / 2)
+        old = va.copy()
+        if self.solver is None:
+            # The dashpot (c) implicit, the rest explicit: v' = (m v + dt f) / (m + dt c).
+            va[:] = (m * (1 - dt * sh.a0) * va + dt * fa) / (m + dt * c)
+        else:
+            self.K.mult(self.v, self.Kv)
+            ra = self.r.getArray()
+            ra[:] = m * (1 - dt * sh.a0) * va - (dt * sh.a1 / 2) * self.Kv.getArray() + dt * fa
+            self.solver.solve(self.r, self.v)
+            va = self.v.getArray()
+        ua += dt * va
+        return (va - old) / dt
+
+    def state(self) -> tuple:
+        """(u, v): this rank's reduced values (m, m/s), copies."""
+        return self.u.getArray().copy(), self.v.getArray().copy()
 
     def run(self, t_end: float, velocity, acceleration, dt: float | None = None) -> dict:
         """Step to ``t_end`` (s) under the base motion, given as functions of time (s): its
@@ -132,42 +222,54 @@ class ShakenBody:
         the base's own for a rigid one). Returns {"t": times (s), "surface": the mean
         absolute acceleration of the top nodes in the shaking direction (m/s2), "base": the
         base's}, on every rank."""
-        dt = dt or self.dt
+        self.start(dt or self.dt)
+        dt = self.dt
         n = int(math.ceil(t_end / dt - 1e-9))
-        sh, m, c = self.shaking, self.m, self.c
-        u, v, f, Kv = (self.K.createVecRight() for _ in range(4))
-        ua, va = u.getArray(), v.getArray()
         mpi = self.K.getComm().tompi4py()
-        ntop, nbase = (mpi.allreduce(int(np.sum(mask))) for mask in (self.top, self.base))
+        top = self.along_full & (self.row == self.grid.nodes[1] - 1)
+        base = self.along_full & (self.row == 0)
+        ntop, nbase = (mpi.allreduce(int(np.sum(mask))) for mask in (top, base))
+        full = self.T.createVecLeft() if self.T is not None else None
+        rigid = self.shaking.base == "rigid"
         t = dt * np.arange(n + 1)
-        surface, base = np.zeros(n + 1), np.zeros(n + 1)
-        rigid = sh.base == "rigid"
+        surface, at_base = np.zeros(n + 1), np.zeros(n + 1)
+        a_vec = self.K.createVecRight()
         for k in range(n + 1):
-            # The forces at t_k move v from t_k - dt/2 to t_k + dt/2: the acceleration
-            # (v' - v) / dt is that of t_k.
-            self.K.mult(u, f)
-            fa = -f.getArray()
-            if sh.a1:
-                self.K.mult(v, Kv)
-                fa -= sh.a1 * Kv.getArray()
-            if rigid:
-                fa[self.along] -= m[self.along] * acceleration(t[k])
-            fa += c * velocity(t[k] + dt / 2)
-            old = va.copy()
-            # The dashpot (c) implicit, the rest explicit: v' = (m v + dt f) / (m + dt c).
-            va[:] = (m * (1 - dt * sh.a0) * va + dt * fa) / (m + dt * c)
-            ua += dt * va
-            a = (va - old) / dt
+            a_vec.setArray(self.step(t[k], velocity, acceleration))
+            a = self.expand(a_vec, full)
             a_abs = a + (acceleration(t[k]) if rigid else 0.0)
-            surface[k] = mpi.allreduce(float(np.sum(a_abs[self.top]))) / ntop
-            base[k] = (acceleration(t[k]) if rigid else
-                       mpi.allreduce(float(np.sum(a[self.base]))) / nbase)
-        for vec in (u, v, f, Kv):
-            vec.destroy()
-        return {"t": t, "surface": surface, "base": base, "dt": dt}
+            surface[k] = mpi.allreduce(float(np.sum(a_abs[top]))) / ntop
+            at_base[k] = (acceleration(t[k]) if rigid else
+                          mpi.allreduce(float(np.sum(a[base]))) / nbase)
+        scene.destroy(a_vec, full)
+        return {"t": t, "surface": surface, "base": at_base, "dt": dt}
 
     def destroy(self):
-        scene.destroy(self.K, self.free, self.points, self.grid)
+        scene.destroy(self.solver, self.u, self.v, getattr(self, "r", None),
+                      getattr(self, "Kv", None), self.T, self.K, self.free, self.points,
+                      self.grid)
+
+
+def _ties(K, idx, nx: int):
+    """The tying matrix T (free DOFs x reduced DOFs, one 1 a row) of periodic sides: each
+    right-side DOF (node column nx - 1) takes the reduced DOF of the left-side one of its
+    row and component, every other DOF its own. Rows in K's order (the ranks' free DOFs,
+    natural numbers ``idx``, one after the other)."""
+    comm = K.getComm()
+    mpi = comm.tompi4py()
+    every = np.concatenate(mpi.allgather(np.asarray(idx)))
+    start = mpi.exscan(len(idx)) or 0
+    right = (every // 2) % nx == nx - 1
+    reduced = np.cumsum(~right) - 1                  # numbers of the kept DOFs
+    where = {int(d): r for d, r in zip(every[~right], reduced[~right])}
+    partner = every - 2 * (nx - 1) * right           # the same row's left node
+    mine = slice(start, start + len(idx))
+    cols = np.array([where[int(d)] for d in partner[mine]], dtype=PETSc.IntType)
+    ptr = np.arange(len(idx) + 1, dtype=PETSc.IntType)
+    T = PETSc.Mat().createAIJ(((len(idx), None), (int(np.sum(~right[mine])), None)),
+                              csr=(ptr, cols, np.ones(len(idx))), comm=comm)
+    T.assemble()
+    return T
 
 
 def _max():

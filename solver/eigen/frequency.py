@@ -138,21 +138,28 @@ def f1_cells(element: str, cells) -> tuple:
 def fundamental_frequency(comm, body, soil, solver: str = "jacobi", tol: float = 1e-15,
                           max_sweeps: int = 50) -> float:
     """f1 (Hz) of ``body`` (scene.Body) made of ``soil`` (saturated density), on
-    :func:`f1_cells`: by our Jacobi solver (``solver`` 'jacobi', tolerance ``tol``, at
-    most ``max_sweeps``) up to JACOBI_MAX_DOFS, else by SLEPc, which takes its options
-    under the prefix ``f1_`` (``-f1_eps_view``), apart from an eigen analysis's
-    ``-eps_*``."""
+    :func:`f1_cells`: :func:`lowest` with SLEPc's options under the prefix ``f1_``
+    (``-f1_eps_view``), apart from an eigen analysis's ``-eps_*``."""
     body = replace(body, cells=f1_cells(body.element, body.cells))
+    return float(lowest(comm, body, soil, 1, solver, tol, max_sweeps, "f1_")[0][0])
+
+
+def lowest(comm, body, soil, count: int, solver: str = "jacobi", tol: float = 1e-15,
+           max_sweeps: int = 50, prefix: str = "", largest: int = JACOBI_MAX_DOFS) -> tuple:
+    """(the ``count`` lowest natural frequencies (Hz) of ``body`` made of ``soil``, the
+    solver that found them): our Jacobi solver (``solver`` 'jacobi', tolerance ``tol``, at
+    most ``max_sweeps``) up to ``largest`` DOFs, a dense method, else SLEPc (its options
+    under ``prefix``)."""
     made = build(comm, body, soil)
     _, _, K, M, _ = made
     try:
-        if solver == "jacobi" and K.getSize()[0] <= JACOBI_MAX_DOFS:
-            res = jacobi.solve(K, M, 1, tol, max_sweeps)
-            lam, vectors = res.eigenvalues[0], res.vectors
+        if solver == "jacobi" and K.getSize()[0] <= largest:
+            res = jacobi.solve(K, M, count, tol, max_sweeps)
+            lam, vectors, used = res.eigenvalues[:count], res.vectors, "jacobi"
         else:
-            res = slepc_solve(K, M, 1, prefix="f1_")
-            lam, vectors = res.values[0], res.vectors
+            res = slepc_solve(K, M, count, prefix=prefix)
+            lam, vectors, used = res.values[:count], res.vectors, "slepc"
         destroy(*vectors)
     finally:
         destroy(*reversed(made))
-    return float(frequencies([lam])[0])
+    return frequencies(lam), used

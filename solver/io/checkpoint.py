@@ -32,6 +32,7 @@ from . import output
 # Options that do not change the physics of a run: they may differ on restart.
 FREE_OPTIONS = {"output", "summary", "figures", "figure_format", "debug", "progress", "restart",
                 "checkpoint_every", "checkpoint_seconds", "output_every", "Tv_end", "Tv_report",
+                "t_end",
                 "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
                 "stability_analysis", "overwrite"}
 VERSION = 2    # 2: reference positions x0 (2 components) in place of y0

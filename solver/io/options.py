@@ -26,8 +26,10 @@ from dataclasses import dataclass
 from ..common.errors import InputError
 from .scenefile import PREFIX, pairs as file_pairs
 
-EIGEN, CONSOLIDATION = "eigen", "consolidation"
+EIGEN, CONSOLIDATION, DYNAMIC = "eigen", "consolidation", "dynamic"
+ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC)
 BOTH = (EIGEN, CONSOLIDATION)
+MOVING = (CONSOLIDATION, DYNAMIC)       # the analyses that step in time
 BC_CHOICES = ("none", "x", "y", "xy")
 
 
@@ -38,7 +40,7 @@ class Option:
     #                      "float_or_floats" (one value: a float; several: a tuple, per layer)
     default: object
     help: str
-    used_by: tuple = BOTH
+    used_by: tuple = ANALYSES
     check: object = None  # callable(value) -> error text or None
     choices: tuple = ()
     length: int = 0      # fixed list length, 0 for any
@@ -58,6 +60,32 @@ def _all_positive(vs):
 
 def _all_at_least_one(vs):
     return None if all(v >= 1 for v in vs) else "every entry must be >= 1"
+
+
+def _all_nonnegative(vs):
+    return None if all(v >= 0 for v in vs) else "every entry must be >= 0"
+
+
+def _rayleigh(vs):
+    """-mpm_rayleigh: XI in [0, 1), then none or two frequencies F1 < F2 (Hz)."""
+    if len(vs) not in (1, 3):
+        return "give XI or XI,F1,F2"
+    if not 0 <= vs[0] < 1:
+        return "XI must lie in [0, 1)"
+    if len(vs) == 3 and not 0 < vs[1] < vs[2]:
+        return "needs 0 < F1 < F2"
+    return None
+
+
+def _motion(v):
+    """-mpm_base_motion: its form (a file is read when the run starts)."""
+    from ..model.motion import parse
+
+    try:
+        parse(v)
+    except ValueError as exc:
+        return str(exc)
+    return None
 
 
 def _poisson(v):
@@ -109,7 +137,9 @@ def _tolerance(v):
 
 
 SPEC = [
-    Option("analysis", "str", EIGEN, "what to compute", choices=BOTH),
+    Option("analysis", "str", EIGEN, "what to compute: eigen (frequencies and modes), "
+           "consolidation, dynamic (the body shaken at its base or loaded suddenly, in time)",
+           choices=ANALYSES),
     Option("element", "str", "q4", "background cell: q4 (bilinear), q8 (serendipity), "
            "q9 (Lagrange)", choices=("q4", "q8", "q9")),
     Option("cells", "ints", (1, 10), "cells across and up, NX,NY", length=2,
@@ -132,25 +162,28 @@ SPEC = [
     Option("rho_l", "float", 1000.0, "liquid density (kg/m3), one for every layer",
            check=_positive),
     Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=_open_unit),
-    Option("bc_left", "str", "x", "fixed displacement components on x = 0", choices=BC_CHOICES),
-    Option("bc_right", "str", "x", "fixed displacement components on x = W", choices=BC_CHOICES),
+    Option("bc_left", "str", "x", "fixed displacement components on x = 0", BOTH,
+           choices=BC_CHOICES),
+    Option("bc_right", "str", "x", "fixed displacement components on x = W", BOTH,
+           choices=BC_CHOICES),
     Option("bc_bottom", "str", "xy", "fixed displacement components on y = 0",
-           choices=BC_CHOICES),
+           BOTH, choices=BC_CHOICES),
     Option("bc_top", "str", "none", "fixed displacement components on y = H",
-           choices=BC_CHOICES),
-    Option("nmodes", "int", 5, "eigenpairs to report", check=_at_least_one),
+           BOTH, choices=BC_CHOICES),
+    Option("nmodes", "int", 5, "eigenpairs to report", BOTH, check=_at_least_one),
     Option("eigen_solver", "strs", ("jacobi", "slepc"), "eigen solvers to run, one or both",
+           BOTH,
            choices=("jacobi", "slepc")),
     Option("jacobi_tol", "float", 1e-15, "Jacobi convergence tolerance xi, eq. (4)",
            check=_tolerance),
     Option("jacobi_max_sweeps", "int", 50, "Jacobi sweeps before giving up (exit code 3)",
            check=_at_least_one),
     # -- two-phase consolidation --------------------------------------------------------
-    Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", (CONSOLIDATION,), _positive),
-    Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", (CONSOLIDATION,),
+    Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", MOVING, _positive),
+    Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", MOVING,
            _positive),
     Option("k", "float_or_floats", 2.5e-4, "hydraulic conductivity (m/s), defined with g = "
-           "9.81 m/s2, per layer", (CONSOLIDATION,), _positive),
+           "9.81 m/s2, per layer", MOVING, _positive),
     Option("gravity", "float", 0.0, "body force, acting downwards (m/s2)", (CONSOLIDATION,),
            _nonnegative),
     Option("initial_state", "str", "deposited", "the state before the load, with gravity: "
@@ -161,17 +194,18 @@ SPEC = [
     Option("K0", "float_or_floats", float("nan"), "earth pressure coefficient at rest "
            "sigma'_h / sigma'_v of the geostatic state, per layer (default: each layer's "
            "nu / (1 - nu))", (CONSOLIDATION,), _nonnegative),
-    Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa)",
-           (CONSOLIDATION,), _nonnegative),
+    Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa); dynamic: "
+           "applied suddenly at t = 0, and only when given",
+           MOVING, _nonnegative),
     Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
            "footing on a half model with rollers on its axis x = 0 (default: the whole top)",
-           (CONSOLIDATION,), length=2),
+           MOVING, length=2),
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
            (CONSOLIDATION,), _nonnegative),
     Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable "
            "(no flow relative to the skeleton); left and right with q4 cells only; none: "
            "no drained side (undrained loading)",
-           (CONSOLIDATION,), choices=("left", "right", "bottom", "top", "none")),
+           MOVING, choices=("left", "right", "bottom", "top", "none")),
     Option("scheme", "str", "auto", "time scheme: explicit (the dynamic v-w step of the "
            "paper), implicit (quasi-static u-p Biot on the material points: TR-BDF2 on steps "
            "graded from the load, LU by MUMPS; options -mpm_ksp_*, -mpm_pc_*, -mpm_mat_mumps_*) "
@@ -223,7 +257,7 @@ SPEC = [
            "interfaces on cell boundaries)", (CONSOLIDATION,), length=2,
            check=_all_at_least_one),
     Option("output_every", "int", 0, "write point fields every N steps and at the report "
-           "times (0: at the report times only)", (CONSOLIDATION,), _nonnegative),
+           "times (0: at the report times only)", MOVING, _nonnegative),
     Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "
            "accelerations, 0 for none (it opposes the settlement too: docs/studies.md)",
            (CONSOLIDATION,),
@@ -264,18 +298,50 @@ SPEC = [
            "report time stays within 0.2 % of q, docs/method.md), or a number S > 0; the "
            "wave limits grow as sqrt(S)", (CONSOLIDATION,), _scaling),
     Option("checkpoint_every", "int", 0, "write OUTPUT/checkpoint.npz every N steps (0: never)",
-           (CONSOLIDATION,), _nonnegative),
+           MOVING, _nonnegative),
     Option("checkpoint_seconds", "float", 0.0, "also write it every S seconds of wall time",
-           (CONSOLIDATION,), _nonnegative),
+           MOVING, _nonnegative),
     Option("restart", "str", "", "continue the run stored in this checkpoint file, with its "
            "options (-mpm_restart CK alone); options beside it may change only the output, "
            "the end and report times and the cadence of fields, checkpoints and progress",
-           (CONSOLIDATION,)),
+           MOVING),
     Option("overwrite", "bool", False, "let -mpm_restart write into an -mpm_output that "
            "holds another run's results (its summary, field series or checkpoint); the "
-           "field series starts again from the checkpoint's own times", (CONSOLIDATION,)),
+           "field series starts again from the checkpoint's own times", MOVING),
     Option("progress", "float", 10.0, "seconds between progress lines (0: none)",
-           (CONSOLIDATION,), _nonnegative),
+           MOVING, _nonnegative),
+    # -- dynamics: the body shaken at its base (or loaded suddenly) -----------------------
+    Option("phases", "int", 1, "1: the solid alone with the mixture's density (dry or total "
+           "stress; a dry soil sets -mpm_rho_l 0); 2: saturated, the v-w step (pore pressure; "
+           "no base motion)", (DYNAMIC,), lambda v: None if v in (1, 2) else "choose 1 or 2"),
+    Option("base_motion", "str", "none", "the input motion: none, ricker:F0,AMP (Hz, peak "
+           "m/s2, centred at 1.5/F0 s), sine:F,AMP,CYCLES, or a record file: CSV t (s), a "
+           "(m/s2), or a PEER .AT2 (g); interpolated onto the steps, zero after its end",
+           (DYNAMIC,), _motion),
+    Option("base_motion_scale", "float", 1.0, "factor on the input motion", (DYNAMIC,),
+           _positive),
+    Option("base_direction", "str", "x", "direction of the base motion: x (vertically "
+           "propagating shear waves) or y (compression waves)", (DYNAMIC,), choices=("x", "y")),
+    Option("base", "str", "compliant", "rigid (the motion is the base's own, a within "
+           "motion) or compliant (elastic rock under the soil: a Lysmer dashpot driven by the "
+           "rock-outcrop motion)", (DYNAMIC,), choices=("rigid", "compliant")),
+    Option("rock_Vs", "float", 760.0, "shear-wave speed of the rock under a compliant base "
+           "(m/s)", (DYNAMIC,), _positive),
+    Option("rock_Vp", "float", 1520.0, "compression-wave speed of the rock (m/s)",
+           (DYNAMIC,), _positive),
+    Option("rock_rho", "float", 2200.0, "density of the rock (kg/m3)", (DYNAMIC,), _positive),
+    Option("bc_sides", "str", "rollers", "the sides: rollers (held across the shaking "
+           "direction) or periodic (left and right nodes tied: a body of any width moves as "
+           "a column; not with a load on part of the top)", (DYNAMIC,),
+           choices=("rollers", "periodic")),
+    Option("rayleigh", "floats", (), "Rayleigh damping XI[,F1,F2]: ratio XI at F1 and F2 "
+           "(Hz; default f1 and 5 f1 of the Jacobi eigen analysis of the same column); "
+           "none when not given", (DYNAMIC,), _rayleigh),
+    Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), _positive),
+    Option("record_depths", "floats", (), "depths below the surface of the recorded "
+           "histories (m); the surface and the base always", (DYNAMIC,), _all_nonnegative),
+    Option("record_dt", "float", 0.005, "time between recorded samples (s; the step's "
+           "multiple nearest it)", (DYNAMIC,), _positive),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),

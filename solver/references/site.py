@@ -38,13 +38,16 @@ from ..common.errors import InputError
 class Column:
     """Layers from the surface down: ``thickness`` (m), ``Vs`` (m/s), ``rho`` (kg/m3) and
     ``damping`` (ratio) each a tuple of one value per layer; the rock under them ``rock``
-    = (Vs_r (m/s), rho_r (kg/m3), xi_r), or None for a rigid base."""
+    = (Vs_r (m/s), rho_r (kg/m3), xi_r), or None for a rigid base; ``viscosity`` a1 (s),
+    the soil's stiffness-proportional (Kelvin-Voigt) damping, G* = G (1 + 2 i xi + i w a1):
+    the damping ratio a1 w / 2 of Rayleigh's stiffness term."""
 
     thickness: tuple
     Vs: tuple
     rho: tuple
     damping: tuple = None
     rock: tuple = None
+    viscosity: float = 0.0
 
     def __post_init__(self):
         n = len(self.thickness)
@@ -79,13 +82,15 @@ def _amplitudes(column: Column, f) -> tuple:
     w = 2 * np.pi * np.asarray(f, dtype=float)
     A = np.ones_like(w, dtype=complex)
     B = np.ones_like(w, dtype=complex)
-    V = _complex_speed(column.Vs, column.damping)
+    # Layers down, frequencies across: the viscous term makes V* depend on w.
+    V = _complex_speed(np.asarray(column.Vs)[:, None],
+                       np.asarray(column.damping)[:, None] + w[None, :] * column.viscosity / 2)
     rho = np.asarray(column.rho, dtype=float)
     if column.rock is not None:
         Vr = _complex_speed(column.rock[0], column.rock[2] if len(column.rock) > 2 else 0.0)
-        below = np.r_[rho[1:] * V[1:], column.rock[1] * Vr]
-    else:
-        below = np.r_[rho[1:] * V[1:], np.inf]     # the base: continuity of u alone counts
+        below = np.vstack([rho[1:, None] * V[1:], column.rock[1] * Vr + 0 * w])
+    else:       # the base: continuity of u alone counts
+        below = np.vstack([rho[1:, None] * V[1:], np.full_like(w, np.inf)])
     for m, h in enumerate(column.thickness):
         phase = np.exp(1j * w / V[m] * h)
         a = rho[m] * V[m] / below[m]

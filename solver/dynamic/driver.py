@@ -1,0 +1,360 @@
+"""``-mpm_analysis dynamic``: the body shaken at its base, or loaded suddenly, stepped in time.
+
+One phase (:class:`column.ShakenBody`: the solid with the mixture's density, a dry or
+total-stress analysis) under a base motion and a sudden surface load; two phases
+(:mod:`solver.dynamic.saturated`: the explicit v-w step of the consolidation analysis
+without its damping) under a sudden load. The set-up reads the options once
+(:func:`plan_of`), computes the lowest natural frequencies of the same column by our Jacobi
+solver (the default Rayleigh frequencies f1 and 5 f1, and the marks on the transfer
+function), then steps, recording the row means at the recorded depths every
+``-mpm_record_dt`` and the peaks of every row (:mod:`solver.dynamic.histories`),
+checkpointing as asked and on SIGTERM; the reporting writes the histories, spectra,
+profiles, figures, the nodal or point fields (XDMF) and the summary's ``dynamic`` block.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import time
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..common import signals
+from ..common.errors import InputError, Interrupted, NumericalError, entry
+from ..eigen.frequency import lowest
+from ..io import checkpoint, output, provenance
+from ..io import records as record_files
+from ..model import scene
+from ..model.motion import Motion, parse
+from ..model.scene import Body, Loading
+from ..model.soil import Ground
+from ..references import layered
+from . import histories, reporting
+from .column import ShakenBody, Shaking, rayleigh
+
+EIGEN_DOFS = 2000          # the dense Jacobi solve's largest problem here (about 30 s)
+MAX_STEPS = 5e7
+
+
+@dataclasses.dataclass
+class DynamicPlan:
+    """What a dynamic run does, resolved from the options: the body, ground and shaking,
+    periodic sides, the load (None: none), the motion, the phases, the end (s), the
+    recorded depths (m), the natural frequencies (Hz; Jacobi's and the layered rod's),
+    the Rayleigh damping (xi, F1, F2 or None), the outputs and the run's provenance."""
+
+    body: Body
+    ground: Ground
+    shaking: Shaking
+    periodic: bool
+    loading: Loading | None
+    motion: Motion
+    phases: int
+    t_end: float
+    record_dt: float
+    depths: tuple
+    eigen_hz: np.ndarray
+    eigen_solver: str
+    analytic_hz: np.ndarray
+    damping: tuple | None
+    outputs: output.Outputs
+    run: dict
+    signature: str
+    restart: str
+    cadence: tuple          # (output_every, checkpoint_every, checkpoint_seconds, progress)
+
+
+def validate(p) -> list:
+    """InputError for options that contradict each other; the notes to print."""
+    H, W = p.size[1], p.size[0]
+    notes = []
+    if p.phases == 2 and p.base_motion.strip() not in ("", "none"):
+        raise InputError(f"-mpm_base_motion {p.base_motion}: two phases (-mpm_phases 2) "
+                         "take a sudden load only; shake the body with -mpm_phases 1")
+    if p.phases == 2 and "load" not in p.given:
+        raise InputError("-mpm_phases 2: give the sudden load -mpm_load (Pa)")
+    if p.phases == 1 and parse(p.base_motion)[0] == "none" and "load" not in p.given:
+        raise InputError("-mpm_base_motion none: nothing moves the body (give a base "
+                         "motion or -mpm_load)")
+    if p.load_extent and not 0 <= p.load_extent[0] < p.load_extent[1] <= W:
+        raise InputError(f"-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}: "
+                         f"outside the top (0 <= x0 < x1 <= {W:g} m)")
+    if p.bc_sides == "periodic" and Loading(extent=tuple(p.load_extent)).partial(W):
+        raise InputError("-mpm_bc_sides periodic: a load on part of the top "
+                         f"(-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}) is "
+                         "not the same on every column; use rollers")
+    deep = [d for d in p.record_depths if d > H]
+    if deep:
+        raise InputError(f"-mpm_record_depths {deep[0]:g}: below the base ({H:g} m deep)")
+    if p.rayleigh and p.phases == 2:
+        raise InputError("-mpm_rayleigh: for one phase (the v-w step's drag damps the "
+                         "two-phase waves)")
+    if p.t_end / p.record_dt > 1e6:
+        raise InputError(f"-mpm_record_dt {p.record_dt:g}: more than 1e6 samples to "
+                         f"-mpm_t_end {p.t_end:g} s")
+    return notes
+
+
+def motion_of(p) -> tuple:
+    """(the base motion of ``-mpm_base_motion`` times its scale, the notes): a record file
+    is read here (InputError: missing, unreadable, times not increasing)."""
+    form = parse(p.base_motion)
+    table = record_files.read(form[1]) if form[0] == "file" else None
+    motion = Motion(form, p.base_motion_scale, table)
+    notes = []
+    if motion.end < p.t_end:
+        notes.append(f"-mpm_base_motion {form[1]}: the record ends at {motion.end:.6g} s, "
+                     f"before -mpm_t_end {p.t_end:g} s; zero acceleration after it")
+    return motion, notes
+
+
+def plan_of(p, comm) -> DynamicPlan:
+    """The plan of the options ``p`` (printed as it goes)."""
+    notes = validate(p)
+    motion, more = motion_of(p)
+    for note in notes + more:
+        PETSc.Sys.Print(f"Note: {note}", comm=comm)
+    ground = Ground.from_options(p)
+    direction = "y" if p.phases == 2 else p.base_direction
+    speed = p.rock_Vs if direction == "x" else p.rock_Vp
+    base = "rigid" if p.phases == 2 else p.base
+    shaking0 = Shaking(direction, base, p.rock_rho, speed)
+    periodic = p.bc_sides == "periodic"
+    body = Body(element=p.element, cells=tuple(p.cells), size=tuple(p.size), ppc=p.ppc,
+                placement=p.points, bcs=shaking0.supports(periodic),
+                drained=tuple(s for s in p.drained if s != "none"))
+    loading = Loading(load=p.load, extent=tuple(p.load_extent)) if "load" in p.given \
+        else None
+    if loading is not None:
+        loading.check_extent(body)
+    signals.stage("set-up: the natural frequencies")
+    eigen_body = dataclasses.replace(body, bcs=Shaking(direction, "rigid").supports())
+    eig, solver = lowest(comm, eigen_body, ground, 3, "jacobi", p.jacobi_tol,
+                         p.jacobi_max_sweeps, "eigen_", EIGEN_DOFS)
+    soils = ground.soils
+    modulus = [s.E / (2 * (1 + s.nu)) if direction == "x" else s.constrained_modulus
+               for s in soils]
+    analytic = layered.rod_frequencies(ground.thickness, modulus,
+                                       [s.density for s in soils], 3)
+    damping = None
+    shaking = shaking0
+    if p.rayleigh:
+        xi, f1, f2 = p.rayleigh if len(p.rayleigh) == 3 else (p.rayleigh[0], eig[0],
+                                                               5 * eig[0])
+        damping = (xi, f1, f2)
+        shaking = dataclasses.replace(shaking0, **dict(zip(("a0", "a1"), rayleigh(xi, f1,
+                                                                                    f2))))
+    summary_path = p.summary or os.path.join(p.output, "summary.json")
+    return DynamicPlan(body=body, ground=ground, shaking=shaking, periodic=periodic,
+                       loading=loading, motion=motion, phases=p.phases, t_end=p.t_end,
+                       record_dt=p.record_dt, depths=tuple(p.record_depths), eigen_hz=eig,
+                       eigen_solver=solver, analytic_hz=analytic, damping=damping,
+                       outputs=output.Outputs(p.output, summary_path, p.figures,
+                                              p.figure_format),
+                       run={"id": None, "options": checkpoint.recorded(p)},
+                       signature=checkpoint.signature(p), restart=p.restart,
+                       cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
+                                p.progress))
+
+
+def run(p, comm) -> int:
+    """Run the dynamic scene ``p``; returns 0."""
+    t_wall = time.perf_counter()
+    signals.stage("set-up: the options' checks")
+    restart = checkpoint.read(p.restart, checkpoint.signature(p)) if p.restart else None
+    summary_path = p.summary or os.path.join(p.output, "summary.json")
+    if restart is not None and not p.overwrite:
+        checkpoint.check_folder(p.output, summary_path, p.restart, restart[3], comm)
+    plan = plan_of(p, comm)
+    plan.run["id"] = restart[3] if restart and restart[3] else checkpoint.new_run_id(comm)
+    if plan.phases == 2:
+        from .saturated import SaturatedColumn as Model
+    else:
+        Model = NodalModel
+    model = Model(comm, plan)
+    try:
+        return _run(plan, model, restart, comm, t_wall, provenance.options(p))
+    finally:
+        model.destroy()
+
+
+class NodalModel:
+    """One phase on the nodes (:class:`ShakenBody`) as the time loop drives it: the step,
+    the row means of a sample, the state of a checkpoint, the fields of the XDMF series."""
+
+    water = False
+
+    def __init__(self, comm, plan: DynamicPlan):
+        signals.stage("set-up: the body")
+        self.plan = plan
+        self.body = ShakenBody(comm, plan.body, plan.ground, plan.shaking, plan.periodic,
+                               plan.loading)
+        b = self.body
+        every = max(1, math.ceil(plan.record_dt / b.dt - 1e-9))
+        self.dt, self.every = plan.record_dt / every, every
+        b.start(self.dt)
+        ny, nx = b.grid.nodes[1], b.grid.nodes[0]
+        self.heights = np.linspace(0.0, plan.body.height, ny)
+        self.key, self.nx = b.row * 2 + b.comp, nx
+        self.full = b.T.createVecLeft() if b.T is not None else None
+        self.vec = b.K.createVecRight()
+        self.kept = np.ones(len(b.row), dtype=bool) if b.T is None else \
+            (b.free.getIndices() // 2) % nx != nx - 1
+        self.mpi = comm.tompi4py()
+        self.a = np.zeros(len(b.m))
+
+    def step(self, t: float) -> None:
+        m = self.plan.motion
+        self.a = self.body.step(t, m.velocity, m.acceleration)
+
+    def _full(self, values) -> np.ndarray:
+        self.vec.setArray(values)
+        return self.body.expand(self.vec, self.full).copy()
+
+    def means(self, t: float) -> np.ndarray:
+        """The row means (rows x COLUMNS) at t (s), the step from t just taken."""
+        b, dt = self.body, self.dt
+        v_half = b.v.getArray()
+        a = self.a
+        v = v_half - a * dt / 2
+        u = b.u.getArray() - dt * v_half
+        ny = len(self.heights)
+        sums = np.stack([np.bincount(self.key, weights=self._full(x), minlength=2 * ny)
+                         for x in (a, v, u)])
+        sums = self.mpi.allreduce(sums) / self.nx
+        out = np.full((ny, 7), np.nan)
+        for c in (0, 1):
+            out[:, 3 * c:3 * c + 3] = sums[:, c::2].T
+        comp = 3 * (0 if b.shaking.direction == "x" else 1)
+        if b.shaking.base == "rigid":        # the frame of the base: absolute a and v
+            m = self.plan.motion
+            out[:, comp] += m.acceleration(t)
+            out[:, comp + 1] += m.velocity(t)
+        else:                                # displacements relative to the base
+            out[:, [2, 5]] -= out[0, [2, 5]]
+        return out
+
+    def check(self, step: int, t: float) -> None:
+        local = float(np.max(np.abs(self.body.v.getArray()), initial=0.0))
+        if not math.isfinite(self.mpi.allreduce(local, op=_max())):
+            raise NumericalError(f"the run blew up at step {step} (t = {t:.6g} s)")
+
+    def state(self) -> dict:
+        """u, v of every free DOF (natural numbers, gathered on rank 0)."""
+        b = self.body
+        idx = b.free.getIndices()
+        u, v = (self._full(x) for x in b.state())
+        parts = self.mpi.gather(np.column_stack([idx, u, v]), root=0)
+        if parts is None:
+            return {}
+        whole = np.concatenate(parts)
+        return {"nodal": whole[np.argsort(whole[:, 0])].tolist()}
+
+    def restore(self, state: dict) -> None:
+        whole = np.array(state["nodal"], dtype=float)
+        idx = self.body.free.getIndices()
+        at = np.searchsorted(whole[:, 0], idx)
+        self.body.u.setArray(whole[at, 1][self.kept])
+        self.body.v.setArray(whole[at, 2][self.kept])
+
+    def fields(self) -> tuple:
+        """(node coordinates (N, 2), {name: (N, 3)}) of every node, natural order (rank
+        0; None elsewhere): displacement and velocity (relative to a rigid base)."""
+        b = self.body
+        idx = b.free.getIndices()
+        u, v = (self._full(x) for x in b.state())
+        parts = self.mpi.gather(np.column_stack([idx, u, v, self.a_full()]), root=0)
+        if parts is None:
+            return None
+        whole = np.concatenate(parts)
+        nx, ny = b.grid.nodes
+        n = nx * ny
+        out = {name: np.zeros((n, 3)) for name in ("displacement", "velocity",
+                                                    "acceleration")}
+        node, comp = whole[:, 0].astype(int) // 2, whole[:, 0].astype(int) % 2
+        for col, name in enumerate(("displacement", "velocity", "acceleration")):
+            out[name][node, comp] = whole[:, col + 1]
+        j, i = np.divmod(np.arange(n), nx)
+        xy = np.column_stack([i * b.grid.size[0] / (nx - 1), self.heights[j]])
+        return xy, out
+
+    def a_full(self) -> np.ndarray:
+        return self._full(self.a)
+
+    def destroy(self):
+        scene.destroy(self.vec, self.full, self.body)
+
+
+def _run(plan, model, restart, comm, t_wall, recorded) -> int:
+    """The time loop and the reporting."""
+    dt, every = model.dt, model.every
+    nsteps = int(math.ceil(plan.t_end / dt - 1e-9))
+    if nsteps > MAX_STEPS:
+        raise InputError(f"-mpm_t_end {plan.t_end:g}: {nsteps:.3g} steps of {dt:.3g} s; "
+                         f"more than {MAX_STEPS:.0e} is not a run that finishes")
+    rec = histories.Recorder(model.heights, plan.body.height, plan.depths,
+                             plan.shaking.direction)
+    first = 0
+    if restart is not None:
+        state = restart[2]
+        first = state["step"]
+        if first > nsteps:
+            raise InputError(f"-mpm_t_end {plan.t_end:g}: before the state of -mpm_restart "
+                             f"{plan.restart} (t = {first * dt:.6g} s)")
+        model.restore(state)
+        rec.restore(state["records"])
+    series = reporting.Series(plan, model, comm, restart)
+    summary = reporting.summary_head(plan, model, nsteps, recorded)
+    reporting.print_plan(plan, model, nsteps, comm)
+    ckpt = os.path.join(plan.outputs.folder, "checkpoint.npz")
+    save = lambda k: checkpoint.write(  # noqa: E731
+        ckpt, comm, model.body.points, {"step": k, "dt": dt, "records": rec.to_dict(),
+                                        "series": series.entries(), **model.state()},
+        plan.signature, plan.run)
+    output_every, ckpt_every, ckpt_seconds, progress = plan.cadence
+    out_every = output_every or max(1, nsteps // 50)
+    last_print = last_ckpt = t0 = time.perf_counter()
+    k = first
+    with signals.deferred("stepping") as stop, PETSc.Log.Stage("Dynamic steps"):
+        try:
+            for k in range(first, nsteps + 1):
+                t = k * dt
+                model.step(t)
+                if k % every == 0:
+                    rec.sample(t, model.means(t))
+                if k % 200 == 0 or k == nsteps:
+                    model.check(k, t)
+                if k % out_every == 0 or k == nsteps:
+                    series.write(k, t)
+                due = ckpt_seconds > 0 and time.perf_counter() - last_ckpt > ckpt_seconds
+                flags = model.mpi.allreduce(np.array([stop.seen, int(due)]), op=_max()) \
+                    if (ckpt_seconds > 0 or k % 50 == 0) else (0, 0)
+                if flags[0] or flags[1] or (ckpt_every and k % ckpt_every == 0):
+                    save(k + 1)
+                    last_ckpt = time.perf_counter()
+                if flags[0]:
+                    raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} "
+                                      f"s); checkpoint {ckpt}; continue with -mpm_restart "
+                                      f"{ckpt}", stage="stepping", agreed=True)
+                if progress and time.perf_counter() - last_print > progress:
+                    last_print = time.perf_counter()
+                    PETSc.Sys.Print(reporting.progress_line(rec, k, nsteps, t, t0, first),
+                                    comm=comm)
+        except (NumericalError, Interrupted) as exc:
+            summary.update(completed=False, steps=k, wall_seconds=time.perf_counter() - t_wall,
+                           error=entry(str(exc), exc.exit_code, "stepping"))
+            if comm.getRank() == 0:
+                output.write_json(plan.outputs.summary,
+                                  dict(summary, files={"summary": plan.outputs.summary}))
+            raise
+    signals.stage("reporting")
+    return reporting.finish(plan, model, rec, series, summary, comm, t_wall)
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX

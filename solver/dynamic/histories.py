@@ -1,0 +1,152 @@
+"""What a dynamic run records: histories at depths, peaks with depth, and what is made of
+them (``histories.csv``, ``spectra.csv``, ``profiles.csv``, the summary's ``dynamic`` block).
+
+The records are row means: at each recorded depth the mean over a row of the lattice's
+nodes (one phase: the state lives on the nodes) or of material points (two phases: the
+pore pressure lives on the points), so that a body of any width records as a column. Each
+sample holds, per depth, a_x, v_x, u_x, a_y, v_y, u_y (m/s2, m/s, m: accelerations and
+velocities absolute, displacements relative to the base) and p (Pa, the excess pore
+pressure; NaN without water). Peaks over time are kept for every row (the profiles), the
+full histories only at the recorded depths.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..io import output
+from ..references import site, spectra
+
+COLUMNS = ("a_x", "v_x", "u_x", "a_y", "v_y", "u_y", "p_pa")
+PERIODS = np.logspace(-2, 1, 100)          # of the pseudo-spectral accelerations (s)
+F_MAX = 50.0                               # highest frequency written to spectra.csv (Hz)
+PEAK_BAND = 0.01        # resonances are sought where the input has 1 % of its peak amplitude
+PROMINENCE = 0.1        # and stand 10 % above the trough beside them
+
+
+def record_rows(heights, H: float, depths) -> tuple:
+    """(the rows recorded, their depths (m)): the surface, the row nearest each depth of
+    ``depths`` (m below the surface) and the base, each once, from the surface down;
+    ``heights`` (m, ascending) are the rows' heights above the base."""
+    heights = np.asarray(heights, dtype=float)
+    wanted = [H] + [H - d for d in depths] + [0.0]
+    rows = sorted({int(np.argmin(np.abs(heights - y))) for y in wanted}, reverse=True)
+    return np.array(rows), H - heights[rows]
+
+
+class Recorder:
+    """Samples of the row means (:meth:`sample`) at the recorded rows and the running peaks
+    of every row: |a| in the shaking direction (m/s2), the strain between neighbouring rows
+    (shear du_x/dy for x shaking, axial du_y/dy for y) and the excess pore pressure (Pa)."""
+
+    def __init__(self, heights, H: float, depths, direction: str):
+        self.heights = np.asarray(heights, dtype=float)
+        self.rows, self.depths = record_rows(self.heights, H, depths)
+        self.comp = 0 if direction == "x" else 1
+        n = len(self.heights)
+        self.t, self.samples = [], []
+        self.peak_a, self.peak_p = np.zeros(n), np.zeros(n)
+        self.peak_strain = np.zeros(max(n - 1, 0))
+
+    def sample(self, t: float, means: np.ndarray) -> None:
+        """Add the sample at t (s) of ``means`` (rows x COLUMNS, every row)."""
+        self.t.append(float(t))
+        self.samples.append(means[self.rows].copy())
+        np.maximum(self.peak_a, np.abs(means[:, 3 * self.comp]), out=self.peak_a)
+        u = means[:, 3 * self.comp + 2]
+        np.maximum(self.peak_strain, np.abs(np.diff(u) / np.diff(self.heights)),
+                   out=self.peak_strain)
+        p = np.nan_to_num(means[:, 6])
+        np.maximum(self.peak_p, np.abs(p), out=self.peak_p)
+
+    def history(self, column: str, at: int = 0) -> np.ndarray:
+        """The history of ``column`` at recorded row ``at`` (0: the surface, -1: the base)."""
+        return np.array([s[at, COLUMNS.index(column)] for s in self.samples])
+
+    def to_dict(self) -> dict:
+        return {"t": self.t, "samples": [s.tolist() for s in self.samples],
+                "peak_a": self.peak_a, "peak_p": self.peak_p, "peak_strain": self.peak_strain}
+
+    def restore(self, d: dict) -> None:
+        self.t = list(d["t"])
+        self.samples = [np.array(s, dtype=float) for s in d["samples"]]
+        for name in ("peak_a", "peak_p", "peak_strain"):
+            setattr(self, name, np.array(d[name], dtype=float))
+
+
+def write_histories(path, rec: Recorder, water: bool) -> None:
+    """histories.csv: one row per time and recorded depth (long format)."""
+    cols = COLUMNS if water else COLUMNS[:-1]
+    lines = ["t_s,depth_m," + ",".join(cols)]
+    for t, s in zip(rec.t, rec.samples):
+        for depth, values in zip(rec.depths, s):
+            lines.append(f"{t:.6g},{depth:.6g}," + ",".join(f"{v:.6e}" for v in
+                                                           values[:len(cols)]))
+    output.write_text(path, "\n".join(lines) + "\n")
+
+
+def write_profiles(path, rec: Recorder, H: float) -> None:
+    """profiles.csv: the peaks with depth, one row per row of the lattice (the strain of
+    the interval below it; the base row has none)."""
+    lines = ["depth_m,peak_a_m_s2,peak_strain,peak_p_pa"]
+    for k in range(len(rec.heights) - 1, -1, -1):
+        s = rec.peak_strain[k - 1] if k > 0 else math.nan
+        lines.append(f"{H - rec.heights[k]:.6g},{rec.peak_a[k]:.6e},{s:.6e},"
+                     f"{rec.peak_p[k]:.6e}")
+    output.write_text(path, "\n".join(lines) + "\n")
+
+
+def spectral(rec: Recorder, a_in: np.ndarray) -> dict:
+    """The spectra of the surface against the input ``a_in`` (m/s2, at the sample times):
+    Fourier amplitudes, the transfer function (raw and Konno-Ohmachi smoothed) up to
+    F_MAX where the input has energy, its first three peaks, and 5 %-damped PSA."""
+    dt = rec.t[1] - rec.t[0]
+    surface = rec.history(COLUMNS[3 * rec.comp])
+    n = 1 << max(1, math.ceil(math.log2(4 * len(surface))))
+    f, A_in = spectra.fourier_amplitude(a_in, dt, n)
+    _, A_top = spectra.fourier_amplitude(surface, dt, n)
+    band = (f > 0) & (f <= F_MAX) & (A_in > 1e-3 * np.max(A_in))
+    f, A_in, A_top = f[band], A_in[band], A_top[band]
+    ratio = A_top / A_in
+    smooth = spectra.konno_ohmachi(f, A_top) / spectra.konno_ohmachi(f, A_in)
+    strong = A_in > PEAK_BAND * np.max(A_in)
+    return {"f": f, "input": A_in, "surface": A_top, "transfer": ratio, "smoothed": smooth,
+            "peaks": resonances(f[strong], ratio[strong], smooth[strong]),
+            "psa_input": spectra.pseudo_acceleration(a_in, dt, PERIODS),
+            "psa_surface": spectra.pseudo_acceleration(surface, dt, PERIODS)}
+
+
+def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:
+    """The frequencies (Hz) of the first ``count`` resonances: the maxima of the raw
+    transfer function ``raw`` (refined by a parabola, :func:`site.peaks`) at the maxima of
+    the smoothed one ``smooth`` that stand PROMINENCE above the lower of the minima beside
+    them, the higher of the two (the raw ratio of two spectra has spurious maxima; the smoothed one is biased by
+    its window)."""
+    out = []
+    top = np.flatnonzero((smooth[1:-1] > smooth[:-2]) & (smooth[1:-1] >= smooth[2:])) + 1
+    for k in top:
+        if smooth[k] < (1 + PROMINENCE) * max(np.min(smooth[:k + 1]), np.min(smooth[k:])):
+            continue
+        # The raw maximum within the smoothed peak's half width.
+        near = np.flatnonzero(np.abs(np.log(f / f[k])) < 0.15)
+        j = near[np.argmax(raw[near])]
+        if 0 < j < len(f) - 1:
+            out.append(site.peaks(f[j - 1:j + 2], raw[j - 1:j + 2], 1)[0])
+        if len(out) == count:
+            break
+    return np.array(out)
+
+
+def write_spectra(path, spec: dict) -> None:
+    """spectra.csv (long format): ``fourier`` rows (x: f in Hz; input and surface Fourier
+    amplitudes in m/s; the transfer function raw and smoothed), then ``psa`` rows (x: the
+    period in s; input and surface 5 %-damped PSA in m/s2; their ratio)."""
+    lines = ["kind,x,input,surface,transfer,transfer_smoothed"]
+    for row in zip(spec["f"], spec["input"], spec["surface"], spec["transfer"],
+                   spec["smoothed"]):
+        lines.append("fourier," + ",".join(f"{v:.6e}" for v in row))
+    for T, a, b in zip(PERIODS, spec["psa_input"], spec["psa_surface"]):
+        lines.append(f"psa,{T:.6e},{a:.6e},{b:.6e},{b / a if a else math.nan:.6e},")
+    output.write_text(path, "\n".join(lines) + "\n")

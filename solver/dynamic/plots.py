@@ -1,0 +1,112 @@
+"""Figures of a dynamic run: the histories at the recorded depths, the transfer function
+with the column's natural frequencies marked, the Fourier and response spectra, and the
+peaks with depth. Times in s, accelerations in m/s2, frequencies in Hz, depths in m."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io import output
+from . import histories
+
+
+def draw(plan, rec, spec, exact, water: bool) -> dict:
+    """Every figure of the run, saved in the output folder; the files {key: path}."""
+    plt = output.pyplot()
+    folder, formats = plan.outputs.folder, plan.outputs.formats
+    files = {}
+    files.update(output.save_figures(_histories(plt, plan, rec, exact, water), folder,
+                                     "histories", formats))
+    files.update(output.save_figures(_profiles(plt, plan, rec, water), folder, "profiles",
+                                     formats))
+    if spec is not None:
+        files.update(output.save_figures(_spectra(plt, plan, spec), folder, "spectra",
+                                         formats))
+    return files
+
+
+def _histories(plt, plan, rec, exact, water):
+    t = np.array(rec.t)
+    name = histories.COLUMNS[3 * rec.comp]
+    n = len(rec.depths)
+    rows = n + (1 if water else 0)
+    fig, axes = plt.subplots(rows, 1, figsize=(8, 1.6 * rows + 0.8), sharex=True,
+                             squeeze=False)
+    for i, depth in enumerate(rec.depths):
+        ax = axes[i, 0]
+        ax.plot(t, rec.history(name, i), lw=0.9, color="tab:blue", label="MPM")
+        if i == 0 and exact is not None:
+            ax.plot(t, exact, lw=0.9, ls="--", color="k", label="exact (1D column)")
+        if i == n - 1 and plan.motion.form[0] != "none":
+            ax.plot(t, plan.motion.acceleration(t), lw=0.8, color="tab:orange",
+                    label="input" + (" (outcrop)" if plan.shaking.base == "compliant"
+                                     else ""))
+        ax.set_ylabel(f"{name} (m/s$^2$)\n{depth:.3g} m", fontsize=8)
+        ax.grid(alpha=0.3)
+        if i in (0, n - 1):
+            ax.legend(fontsize=7, loc="upper right")
+    if water:
+        ax = axes[-1, 0]
+        for i, depth in enumerate(rec.depths[:-1]):
+            ax.plot(t, rec.history("p_pa", i) / 1e3, lw=0.9, label=f"{depth:.3g} m")
+        ax.set_ylabel("excess p (kPa)", fontsize=8)
+        ax.legend(fontsize=7, ncol=3, loc="upper right")
+        ax.grid(alpha=0.3)
+    axes[-1, 0].set_xlabel("t (s)")
+    axes[0, 0].set_title("Histories at the recorded depths (row means)")
+    fig.tight_layout()
+    return fig
+
+
+def _spectra(plt, plan, spec):
+    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(14, 4))
+    f = spec["f"]
+    ax1.plot(f, spec["transfer"], lw=0.6, color="0.6", label="surface / input")
+    ax1.plot(f, spec["smoothed"], lw=1.4, color="tab:blue", label="Konno-Ohmachi (b = 40)")
+    if "exact_transfer" in spec:
+        ax1.plot(f, spec["exact_transfer"], lw=1.0, ls="--", color="k", label="exact")
+    for i, fe in enumerate(plan.eigen_hz):
+        ax1.axvline(fe, color="tab:red", lw=0.8, ls=":",
+                    label="natural frequencies (Jacobi)" if i == 0 else None)
+    top = 2.2 * max(plan.eigen_hz[-1], spec["peaks"][-1] if len(spec["peaks"]) else 0)
+    ax1.set_xlim(0, min(f[-1], top))
+    ax1.set_ylim(0, 1.15 * np.max(spec["smoothed"][f <= top]))
+    ax1.set_xlabel("f (Hz)")
+    ax1.set_ylabel("transfer function")
+    ax1.legend(fontsize=7)
+    ax2.loglog(f, spec["input"], lw=0.8, label="input")
+    ax2.loglog(f, spec["surface"], lw=0.8, label="surface")
+    ax2.set_xlabel("f (Hz)")
+    ax2.set_ylabel("Fourier amplitude (m/s)")
+    ax2.legend(fontsize=7)
+    ax3.semilogx(histories.PERIODS, spec["psa_input"], label="input")
+    ax3.semilogx(histories.PERIODS, spec["psa_surface"], label="surface")
+    ax3.set_xlabel("period (s)")
+    ax3.set_ylabel("PSA, 5 % damping (m/s$^2$)")
+    ax3.legend(fontsize=7)
+    for ax in (ax1, ax2, ax3):
+        ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    return fig
+
+
+def _profiles(plt, plan, rec, water):
+    H = plan.body.height
+    depth = H - rec.heights
+    mid = H - (rec.heights[1:] + rec.heights[:-1]) / 2
+    panels = 3 if water else 2
+    fig, axes = plt.subplots(1, panels, figsize=(3.4 * panels, 4.5), sharey=True)
+    axes[0].plot(rec.peak_a, depth)
+    axes[0].set_xlabel("peak |a| (m/s$^2$)")
+    axes[1].plot(100 * rec.peak_strain, mid)
+    axes[1].set_xlabel(("peak shear strain" if rec.comp == 0 else "peak axial strain")
+                       + " (%)")
+    if water:
+        axes[2].plot(rec.peak_p / 1e3, depth)
+        axes[2].set_xlabel("peak excess p (kPa)")
+    axes[0].set_ylabel("depth (m)")
+    axes[0].invert_yaxis()
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig

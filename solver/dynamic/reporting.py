@@ -1,0 +1,192 @@
+"""The reporting of a dynamic run: what it prints before and while stepping, and what it
+writes after: histories, profiles and spectra (:mod:`solver.dynamic.histories`), the exact
+response where the scene is the one-dimensional column it describes, the figures
+(:mod:`solver.dynamic.plots`), the XDMF series and the summary's ``dynamic`` block."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..io import output
+from ..io.fields import PointSeries
+from ..references import site
+from . import histories, plots
+
+
+def print_plan(plan, model, nsteps: int, comm) -> None:
+    sh = plan.shaking
+    what = ("two phases (the v-w step), a sudden load" if plan.phases == 2 else
+            "one phase (the solid with the mixture's density)")
+    base = (f"compliant base (rock: {sh.rock_speed:g} m/s, {sh.rock_rho:g} kg/m3)"
+            if sh.base == "compliant" else "rigid base")
+    motion = plan.motion.form
+    words = "none" if motion[0] == "none" else (
+        f"record {motion[1]}" if motion[0] == "file" else
+        f"{motion[0]} " + ",".join(f"{v:g}" for v in motion[1:]))
+    PETSc.Sys.Print(
+        f"Dynamic analysis: {what}, {sh.direction} motion, {base}"
+        f"{', periodic sides' if plan.periodic else ''}; base motion {words}"
+        f" x {plan.motion.scale:g}"
+        f"{'' if plan.loading is None else f'; load {plan.loading.load:g} Pa at t = 0'}\n"
+        f"Natural frequencies of the column on a fixed base ({plan.eigen_solver}): "
+        + ", ".join(f"{f:.4g}" for f in plan.eigen_hz) + " Hz; the layered rod's: "
+        + ", ".join(f"{f:.4g}" for f in plan.analytic_hz) + " Hz", comm=comm)
+    if plan.damping is not None:
+        xi, f1, f2 = plan.damping
+        PETSc.Sys.Print(f"Rayleigh damping: {100 * xi:g} % at {f1:.4g} and {f2:.4g} Hz "
+                        f"(a0 = {sh.a0:.4g} 1/s, a1 = {sh.a1:.4g} s)", comm=comm)
+    PETSc.Sys.Print(f"Steps: {nsteps} of {model.dt:.4g} s to {plan.t_end:g} s; records every "
+                    f"{plan.record_dt:g} s at depths "
+                    + ", ".join(f"{d:.4g}" for d in _depths(plan, model)) + " m", comm=comm)
+
+
+def _depths(plan, model):
+    return histories.record_rows(model.heights, plan.body.height, plan.depths)[1]
+
+
+def progress_line(rec, k: int, nsteps: int, t: float, t0: float, first: int) -> str:
+    now = time.perf_counter()
+    surface = rec.samples[-1][0, 3 * rec.comp] if rec.samples else float("nan")
+    return (f"  step {k}/{nsteps} ({100 * k / max(nsteps, 1):.0f} %), t = {t:.4g} s, "
+            f"surface a = {surface:.4g} m/s2, {now - t0:.0f} s elapsed, about "
+            f"{(now - t0) / (k - first + 1) * (nsteps - k):.0f} s left")
+
+
+def summary_head(plan, model, nsteps: int, recorded: dict) -> dict:
+    return {"analysis": "dynamic", "run_id": plan.run["id"], "completed": False,
+            "phases": plan.phases, "dt": model.dt, "steps": nsteps, "t_end": plan.t_end,
+            "provenance": recorded}
+
+
+class Series:
+    """The fields over time as an XDMF series: the nodes' displacement, velocity and
+    acceleration (one phase), or the points' fields (two phases, :class:`PointSeries`)."""
+
+    def __init__(self, plan, model, comm, restart):
+        folder, rid = plan.outputs.folder, plan.run["id"]
+        self.model = model
+        self.points = PointSeries(folder, comm, rid) if model.water else None
+        self.writer = None
+        if self.points is None and comm.getRank() == 0:
+            self.writer = output.XdmfSeries(os.path.join(folder, "nodes.xdmf"), run_id=rid)
+        if restart is not None:
+            entries = restart[2].get("series", [])
+            if self.points is not None:
+                self.points.resume(entries, restart[3])
+            elif self.writer is not None:
+                self.writer.entries = [e for e in entries if os.path.isfile(
+                    os.path.join(folder, str(e[1])))]
+                self.writer.rewrite()
+
+    def write(self, k: int, t: float) -> None:
+        if self.points is not None:
+            self.points.write(self.model.points, k, t)
+            return
+        data = self.model.fields()           # collective
+        if self.writer is not None:
+            self.writer.write(k, t, *data)
+
+    def entries(self) -> list:
+        if self.points is not None:
+            return self.points.entries
+        return self.writer.entries if self.writer else []
+
+    def files(self) -> list:
+        if self.points is not None:
+            return self.points.files()
+        if not self.entries():
+            return []
+        return [self.writer.path] + [os.path.join(self.writer.folder, str(e[1]))
+                                     for e in self.entries()]
+
+
+def exact_column(plan):
+    """The exact one-dimensional reference of the scene (:class:`site.Column`) where it is
+    one: one phase, horizontal shaking, no load, no mass-proportional damping (the
+    stiffness-proportional part is the column's viscosity); else None."""
+    sh = plan.shaking
+    if plan.phases != 1 or sh.direction != "x" or plan.loading is not None or sh.a0 > 0 \
+            or plan.motion.form[0] == "none":
+        return None
+    soils = plan.ground.soils
+    Vs = tuple(float(np.sqrt(s.E / (2 * (1 + s.nu)) / s.density)) for s in soils)
+    rock = (sh.rock_speed, sh.rock_rho, 0.0) if sh.base == "compliant" else None
+    return site.Column(tuple(plan.ground.thickness), Vs, tuple(s.density for s in soils),
+                       rock=rock, viscosity=sh.a1)
+
+
+def finish(plan, model, rec, series, summary, comm, t_wall) -> int:
+    """The outputs after the last step (rank 0 writes) and the closing lines."""
+    folder = plan.outputs.folder
+    t = np.array(rec.t)
+    block = {"record_depths_m": rec.depths.tolist(), "eigen_hz": plan.eigen_hz.tolist(),
+             "eigen_solver": plan.eigen_solver, "analytic_hz": plan.analytic_hz.tolist(),
+             "peak_surface_acceleration": float(np.max(np.abs(rec.history(
+                 histories.COLUMNS[3 * rec.comp]))))}
+    spec = exact = None
+    if plan.motion.form[0] != "none" and len(t) > 8:
+        a_in = plan.motion.acceleration(t)
+        spec = histories.spectral(rec, a_in)
+        block.update(pga_input=float(np.max(np.abs(a_in))),
+                     pga_surface=block["peak_surface_acceleration"],
+                     peaks_hz=spec["peaks"].tolist())
+        col = exact_column(plan)
+        if col is not None:
+            base = "outcrop" if col.rock is not None else "within"
+            exact = site.response(col, t[1] - t[0], a_in, base, pad=8)
+            surface = rec.history(histories.COLUMNS[0])
+            block["exact_error_pct_of_peak"] = float(
+                100 * np.max(np.abs(surface - exact)) / np.max(np.abs(exact)))
+            spec["exact_transfer"] = np.abs(site.transfer(col, spec["f"], base))
+    if plan.damping is not None:
+        block["rayleigh"] = dict(zip(("xi", "f1_hz", "f2_hz"), plan.damping),
+                                 a0=plan.shaking.a0, a1=plan.shaking.a1)
+    if model.water:
+        block.update(model.references(rec))
+    _print_results(block, comm)
+    files = {}
+    if comm.getRank() == 0:
+        files["histories"] = os.path.join(folder, "histories.csv")
+        histories.write_histories(files["histories"], rec, model.water)
+        files["profiles"] = os.path.join(folder, "profiles.csv")
+        histories.write_profiles(files["profiles"], rec, plan.body.height)
+        if spec is not None:
+            files["spectra"] = os.path.join(folder, "spectra.csv")
+            histories.write_spectra(files["spectra"], spec)
+        if plan.outputs.figures:
+            files.update(plots.draw(plan, rec, spec, exact, model.water))
+        fields = series.files()
+        if fields:
+            files["fields_xdmf"], files["fields_h5"] = fields[0], fields[1:]
+    summary.update(completed=True, dynamic=block, wall_seconds=time.perf_counter() - t_wall)
+    files["summary"] = plan.outputs.summary
+    if comm.getRank() == 0:
+        output.write_json(plan.outputs.summary, dict(summary, files=files))
+    PETSc.Sys.Print(output.results_line(folder, files), comm=comm)
+    PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary "
+                    f"{plan.outputs.summary}", comm=comm)
+    return 0
+
+
+def _print_results(block, comm) -> None:
+    lines = []
+    if "pga_input" in block:
+        lines.append(f"Peak acceleration: input {block['pga_input']:.4g} m/s2, surface "
+                     f"{block['pga_surface']:.4g} m/s2")
+        lines.append("Transfer function peaks: " + ", ".join(
+            f"{f:.4g}" for f in block["peaks_hz"]) + " Hz; natural frequencies (Jacobi): "
+            + ", ".join(f"{f:.4g}" for f in block["eigen_hz"]) + " Hz; layered rod: "
+            + ", ".join(f"{f:.4g}" for f in block["analytic_hz"]) + " Hz")
+    if "exact_error_pct_of_peak" in block:
+        lines.append(f"Surface acceleration against the exact response of the column: "
+                     f"largest difference {block['exact_error_pct_of_peak']:.3g} % of its "
+                     "peak")
+    for key, text in (("front", "Front"), ("jump", "Pressure jump"), ("late", "Late")):
+        if key in block:
+            lines.append(f"{text}: {block[key]['words']}")
+    for line in lines:
+        PETSc.Sys.Print(line, comm=comm)
