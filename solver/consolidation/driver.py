@@ -67,6 +67,8 @@ def _validate(p) -> tuple:
         notes.append(f"-mpm_Tv_report ({where}): "
                      + ",".join(f"{t:g}" for t in late) + f" after -mpm_Tv_end {p.Tv_end:g} "
                      f"dropped; reporting at T_v = {','.join(f'{t:g}' for t in p.Tv_report)}")
+    if p.rho_l == 0:
+        raise InputError("-mpm_rho_l 0: consolidation needs pore water (rho_l > 0)")
     if p.load == 0 and p.gravity == 0:
         raise InputError("-mpm_load 0: with -mpm_gravity 0 nothing drives consolidation")
     geostatic = p.initial_state == "geostatic"

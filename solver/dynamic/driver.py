@@ -74,6 +74,8 @@ def validate(p) -> list:
     if p.phases == 2 and p.base_motion.strip() not in ("", "none"):
         raise InputError(f"-mpm_base_motion {p.base_motion}: two phases (-mpm_phases 2) "
                          "take a sudden load only; shake the body with -mpm_phases 1")
+    if p.phases == 2 and p.rho_l == 0:
+        raise InputError("-mpm_rho_l 0: two phases need pore water (rho_l > 0)")
     if p.phases == 2 and "load" not in p.given:
         raise InputError("-mpm_phases 2: give the sudden load -mpm_load (Pa)")
     if p.phases == 1 and parse(p.base_motion)[0] == "none" and "load" not in p.given:
@@ -130,13 +132,17 @@ def plan_of(p, comm) -> DynamicPlan:
         else None
     if loading is not None:
         loading.check_extent(body)
-    signals.stage("set-up: the natural frequencies")
-    eigen_body = dataclasses.replace(body, bcs=Shaking(direction, "rigid").supports())
-    eig, solver = lowest(comm, eigen_body, ground, 3, "jacobi", p.jacobi_tol,
-                         p.jacobi_max_sweeps, "eigen_", EIGEN_DOFS)
+    eig, solver = np.zeros(0), "none"
     soils = ground.soils
-    modulus = [s.E / (2 * (1 + s.nu)) if direction == "x" else s.constrained_modulus
-               for s in soils]
+    if p.phases == 1:
+        signals.stage("set-up: the natural frequencies")
+        eigen_body = dataclasses.replace(body, bcs=Shaking(direction, "rigid").supports())
+        eig, solver = lowest(comm, eigen_body, ground, 3, "jacobi", p.jacobi_tol,
+                             p.jacobi_max_sweeps, "eigen_", EIGEN_DOFS)
+        modulus = [s.E / (2 * (1 + s.nu)) if direction == "x" else s.constrained_modulus
+                   for s in soils]
+    else:         # the waves of a saturated column are undrained
+        modulus = [s.constrained_modulus + s.K_l / s.porosity for s in soils]
     analytic = layered.rod_frequencies(ground.thickness, modulus,
                                        [s.density for s in soils], 3)
     damping = None
@@ -186,6 +192,7 @@ class NodalModel:
     the row means of a sample, the state of a checkpoint, the fields of the XDMF series."""
 
     water = False
+    lag = 0.0               # a sample is of the step's start
 
     def __init__(self, comm, plan: DynamicPlan):
         signals.stage("set-up: the body")
@@ -205,6 +212,7 @@ class NodalModel:
             (b.free.getIndices() // 2) % nx != nx - 1
         self.mpi = comm.tompi4py()
         self.a = np.zeros(len(b.m))
+        self.points = b.points
 
     def step(self, t: float) -> None:
         m = self.plan.motion
@@ -253,8 +261,9 @@ class NodalModel:
         whole = np.concatenate(parts)
         return {"nodal": whole[np.argsort(whole[:, 0])].tolist()}
 
-    def restore(self, state: dict) -> None:
-        whole = np.array(state["nodal"], dtype=float)
+    def restore(self, restart) -> None:
+        """Take up the state of a checkpoint (:func:`checkpoint.read`'s)."""
+        whole = np.array(restart[2]["nodal"], dtype=float)
         idx = self.body.free.getIndices()
         at = np.searchsorted(whole[:, 0], idx)
         self.body.u.setArray(whole[at, 1][self.kept])
@@ -304,14 +313,14 @@ def _run(plan, model, restart, comm, t_wall, recorded) -> int:
         if first > nsteps:
             raise InputError(f"-mpm_t_end {plan.t_end:g}: before the state of -mpm_restart "
                              f"{plan.restart} (t = {first * dt:.6g} s)")
-        model.restore(state)
+        model.restore(restart)
         rec.restore(state["records"])
     series = reporting.Series(plan, model, comm, restart)
     summary = reporting.summary_head(plan, model, nsteps, recorded)
     reporting.print_plan(plan, model, nsteps, comm)
     ckpt = os.path.join(plan.outputs.folder, "checkpoint.npz")
     save = lambda k: checkpoint.write(  # noqa: E731
-        ckpt, comm, model.body.points, {"step": k, "dt": dt, "records": rec.to_dict(),
+        ckpt, comm, model.points, {"step": k, "dt": dt, "records": rec.to_dict(),
                                         "series": series.entries(), **model.state()},
         plan.signature, plan.run)
     output_every, ckpt_every, ckpt_seconds, progress = plan.cadence
@@ -324,7 +333,7 @@ def _run(plan, model, restart, comm, t_wall, recorded) -> int:
                 t = k * dt
                 model.step(t)
                 if k % every == 0:
-                    rec.sample(t, model.means(t))
+                    rec.sample(t + model.lag, model.means(t))
                 if k % 200 == 0 or k == nsteps:
                     model.check(k, t)
                 if k % out_every == 0 or k == nsteps:

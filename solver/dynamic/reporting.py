@@ -31,9 +31,11 @@ def print_plan(plan, model, nsteps: int, comm) -> None:
         f"Dynamic analysis: {what}, {sh.direction} motion, {base}"
         f"{', periodic sides' if plan.periodic else ''}; base motion {words}"
         f" x {plan.motion.scale:g}"
-        f"{'' if plan.loading is None else f'; load {plan.loading.load:g} Pa at t = 0'}\n"
-        f"Natural frequencies of the column on a fixed base ({plan.eigen_solver}): "
-        + ", ".join(f"{f:.4g}" for f in plan.eigen_hz) + " Hz; the layered rod's: "
+        f"{'' if plan.loading is None else f'; load {plan.loading.load:g} Pa at t = 0'}"
+        + (f"\nNatural frequencies of the column on a fixed base ({plan.eigen_solver}): "
+           + ", ".join(f"{f:.4g}" for f in plan.eigen_hz) + " Hz; the layered rod's: "
+           if len(plan.eigen_hz) else "\nNatural frequencies of the undrained column "
+           "(the layered rod's): ")
         + ", ".join(f"{f:.4g}" for f in plan.analytic_hz) + " Hz", comm=comm)
     if plan.damping is not None:
         xi, f1, f2 = plan.damping

@@ -159,8 +159,9 @@ SPEC = [
     Option("nu", "float_or_floats", 0.0, "Poisson's ratio, per layer", check=_poisson),
     Option("rho_s", "float_or_floats", 2700.0, "solid grain density (kg/m3), per layer",
            check=_positive),
-    Option("rho_l", "float", 1000.0, "liquid density (kg/m3), one for every layer",
-           check=_positive),
+    Option("rho_l", "float", 1000.0, "liquid density (kg/m3), one for every layer (0: "
+           "a dry soil, dynamic one-phase only)",
+           check=_nonnegative),
     Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=_open_unit),
     Option("bc_left", "str", "x", "fixed displacement components on x = 0", BOTH,
            choices=BC_CHOICES),

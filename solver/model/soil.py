@@ -62,7 +62,7 @@ class Soil:
         rules = [("E", self.E > 0, "> 0"), ("nu", 0 <= self.nu < 0.5, "in [0, 0.5)"),
                  ("rho_s", self.rho_s > 0, "> 0"), ("porosity", 0 < self.porosity < 1,
                                                      "in (0, 1)"),
-                 ("k", self.k > 0, "> 0"), ("rho_l", self.rho_l > 0, "> 0"),
+                 ("k", self.k > 0, "> 0"), ("rho_l", self.rho_l >= 0, ">= 0"),
                  ("K_l", self.K_l > 0, "> 0"), ("mu_l", self.mu_l > 0, "> 0")]
         for name, ok, rule in rules:
             value = getattr(self, name)
