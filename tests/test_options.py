@@ -97,7 +97,8 @@ def test_options_file_without_name(cli, tmp_path):
 def _consolidation_only():
     from solver.io import options
 
-    return [o for o in options.SPEC if options.EIGEN not in o.used_by]
+    return [o for o in options.SPEC
+            if options.EIGEN not in o.used_by and options.CONSOLIDATION in o.used_by]
 
 
 def test_consolidation_option_rejected_in_eigen_run(cli, tmp_path):

@@ -9,7 +9,7 @@ solver (the default Rayleigh frequencies f1 and 5 f1, and the marks on the trans
 function), then steps, recording the row means at the recorded depths every
 ``-mpm_record_dt`` and the peaks of every row (:mod:`solver.dynamic.histories`),
 checkpointing as asked and on SIGTERM; the reporting writes the histories, spectra,
-profiles, figures, the nodal or point fields (XDMF) and the summary's ``dynamic`` block.
+peaks with depth, figures, the nodal or point fields (XDMF) and the summary's ``dynamic`` block.
 """
 
 from __future__ import annotations
@@ -67,114 +67,150 @@ class DynamicPlan:
     cadence: tuple          # (output_every, checkpoint_every, checkpoint_seconds, progress)
 
 
-def validate(p) -> list:
-    """InputError for options that contradict each other; the notes to print."""
-    H, W = p.size[1], p.size[0]
-    notes = []
-    if p.phases == 2 and p.base_motion.strip() not in ("", "none"):
-        raise InputError(f"-mpm_base_motion {p.base_motion}: two phases (-mpm_phases 2) "
+@dataclasses.dataclass(frozen=True)
+class Request:
+    """The dynamic options, typed: read once at the edge (:meth:`from_options`)."""
+
+    body: Body                 # its supports still the options' (plan_of sets the shaking's)
+    ground: Ground
+    phases: int
+    motion: str                # -mpm_base_motion as given
+    scale: float
+    direction: str
+    base: str
+    rock: tuple                # (rho (kg/m3), Vs, Vp (m/s))
+    periodic: bool
+    rayleigh: tuple
+    t_end: float
+    record_dt: float
+    depths: tuple
+    loading: Loading | None    # the sudden load, when given
+    water: bool                # rho_l > 0
+    jacobi: tuple              # (tolerance, sweeps)
+    outputs: output.Outputs
+    cadence: tuple             # (output_every, checkpoint_every, checkpoint_seconds, progress)
+    restart: str
+    overwrite: bool
+    run: dict                  # {"id": None, "options": the options as read}
+    signature: str
+    provenance: dict
+
+    @classmethod
+    def from_options(cls, p) -> "Request":
+        summary = p.summary or os.path.join(p.output, "summary.json")
+        loading = Loading(load=p.load, extent=tuple(p.load_extent)) if "load" in p.given \
+            else None
+        return cls(body=Body.from_options(p), ground=Ground.from_options(p), phases=p.phases,
+                   motion=p.base_motion, scale=p.base_motion_scale,
+                   direction="y" if p.phases == 2 else p.base_direction,
+                   base="rigid" if p.phases == 2 else p.base,
+                   rock=(p.rock_rho, p.rock_Vs, p.rock_Vp), periodic=p.bc_sides == "periodic",
+                   rayleigh=tuple(p.rayleigh), t_end=p.t_end, record_dt=p.record_dt,
+                   depths=tuple(p.record_depths), loading=loading, water=p.rho_l > 0,
+                   jacobi=(p.jacobi_tol, p.jacobi_max_sweeps),
+                   outputs=output.Outputs(p.output, summary, p.figures, p.figure_format),
+                   cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
+                            p.progress), restart=p.restart, overwrite=p.overwrite,
+                   run={"id": None, "options": checkpoint.recorded(p)},
+                   signature=checkpoint.signature(p), provenance=provenance.options(p))
+
+
+def validate(req: Request) -> None:
+    """InputError for options that contradict each other."""
+    W, H = req.body.size
+    moving = parse(req.motion)[0] != "none"
+    if req.phases == 2 and moving:
+        raise InputError(f"-mpm_base_motion {req.motion}: two phases (-mpm_phases 2) "
                          "take a sudden load only; shake the body with -mpm_phases 1")
-    if p.phases == 2 and p.rho_l == 0:
+    if req.phases == 2 and not req.water:
         raise InputError("-mpm_rho_l 0: two phases need pore water (rho_l > 0)")
-    if p.phases == 2 and "load" not in p.given:
+    if req.phases == 2 and req.loading is None:
         raise InputError("-mpm_phases 2: give the sudden load -mpm_load (Pa)")
-    if p.phases == 1 and parse(p.base_motion)[0] == "none" and "load" not in p.given:
+    if not moving and req.loading is None:
         raise InputError("-mpm_base_motion none: nothing moves the body (give a base "
                          "motion or -mpm_load)")
-    if p.load_extent and not 0 <= p.load_extent[0] < p.load_extent[1] <= W:
-        raise InputError(f"-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}: "
-                         f"outside the top (0 <= x0 < x1 <= {W:g} m)")
-    if p.bc_sides == "periodic" and Loading(extent=tuple(p.load_extent)).partial(W):
-        raise InputError("-mpm_bc_sides periodic: a load on part of the top "
-                         f"(-mpm_load_extent {p.load_extent[0]:g},{p.load_extent[1]:g}) is "
-                         "not the same on every column; use rollers")
-    deep = [d for d in p.record_depths if d > H]
+    extent = req.loading.extent if req.loading is not None else ()
+    if extent and not 0 <= extent[0] < extent[1] <= W:
+        raise InputError(f"-mpm_load_extent {extent[0]:g},{extent[1]:g}: outside the top "
+                         f"(0 <= x0 < x1 <= {W:g} m)")
+    if req.periodic and extent and req.loading.partial(W):
+        raise InputError(f"-mpm_bc_sides periodic: a load on part of the top "
+                         f"(-mpm_load_extent {extent[0]:g},{extent[1]:g}) is not the same on "
+                         "every column; use rollers")
+    deep = [d for d in req.depths if d > H]
     if deep:
         raise InputError(f"-mpm_record_depths {deep[0]:g}: below the base ({H:g} m deep)")
-    if p.rayleigh and p.phases == 2:
+    if req.rayleigh and req.phases == 2:
         raise InputError("-mpm_rayleigh: for one phase (the v-w step's drag damps the "
                          "two-phase waves)")
-    if p.t_end / p.record_dt > 1e6:
-        raise InputError(f"-mpm_record_dt {p.record_dt:g}: more than 1e6 samples to "
-                         f"-mpm_t_end {p.t_end:g} s")
-    return notes
+    if req.t_end / req.record_dt > 1e6:
+        raise InputError(f"-mpm_record_dt {req.record_dt:g}: more than 1e6 samples to "
+                         f"-mpm_t_end {req.t_end:g} s")
 
 
-def motion_of(p) -> tuple:
+def motion_of(req: Request) -> tuple:
     """(the base motion of ``-mpm_base_motion`` times its scale, the notes): a record file
     is read here (InputError: missing, unreadable, times not increasing)."""
-    form = parse(p.base_motion)
+    form = parse(req.motion)
     table = record_files.read(form[1]) if form[0] == "file" else None
-    motion = Motion(form, p.base_motion_scale, table)
+    motion = Motion(form, req.scale, table)
     notes = []
-    if motion.end < p.t_end:
+    if motion.end < req.t_end:
         notes.append(f"-mpm_base_motion {form[1]}: the record ends at {motion.end:.6g} s, "
-                     f"before -mpm_t_end {p.t_end:g} s; zero acceleration after it")
+                     f"before -mpm_t_end {req.t_end:g} s; zero acceleration after it")
     return motion, notes
 
 
-def plan_of(p, comm) -> DynamicPlan:
-    """The plan of the options ``p`` (printed as it goes)."""
-    notes = validate(p)
-    motion, more = motion_of(p)
-    for note in notes + more:
+def plan_of(req: Request, comm) -> DynamicPlan:
+    """The plan of the request (printed as it goes): the motion read, the shaken body's
+    supports, the natural frequencies, the Rayleigh coefficients."""
+    validate(req)
+    motion, notes = motion_of(req)
+    for note in notes:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
-    ground = Ground.from_options(p)
-    direction = "y" if p.phases == 2 else p.base_direction
-    speed = p.rock_Vs if direction == "x" else p.rock_Vp
-    base = "rigid" if p.phases == 2 else p.base
-    shaking0 = Shaking(direction, base, p.rock_rho, speed)
-    periodic = p.bc_sides == "periodic"
-    body = Body(element=p.element, cells=tuple(p.cells), size=tuple(p.size), ppc=p.ppc,
-                placement=p.points, bcs=shaking0.supports(periodic),
-                drained=tuple(s for s in p.drained if s != "none"))
-    loading = Loading(load=p.load, extent=tuple(p.load_extent)) if "load" in p.given \
-        else None
-    if loading is not None:
-        loading.check_extent(body)
+    rho, Vs, Vp = req.rock
+    shaking = Shaking(req.direction, req.base, rho, Vs if req.direction == "x" else Vp)
+    body = dataclasses.replace(req.body, bcs=shaking.supports(req.periodic))
+    if req.loading is not None:
+        req.loading.check_extent(body)
     eig, solver = np.zeros(0), "none"
-    soils = ground.soils
-    if p.phases == 1:
+    soils = req.ground.soils
+    if req.phases == 1:
         signals.stage("set-up: the natural frequencies")
-        eigen_body = dataclasses.replace(body, bcs=Shaking(direction, "rigid").supports())
-        eig, solver = lowest(comm, eigen_body, ground, 3, "jacobi", p.jacobi_tol,
-                             p.jacobi_max_sweeps, "eigen_", EIGEN_DOFS)
-        modulus = [s.E / (2 * (1 + s.nu)) if direction == "x" else s.constrained_modulus
+        eigen_body = dataclasses.replace(body, bcs=Shaking(req.direction, "rigid").supports())
+        eig, solver = lowest(comm, eigen_body, req.ground, 3, "jacobi", *req.jacobi,
+                             "eigen_", EIGEN_DOFS)
+        modulus = [s.E / (2 * (1 + s.nu)) if req.direction == "x" else s.constrained_modulus
                    for s in soils]
     else:         # the waves of a saturated column are undrained
         modulus = [s.constrained_modulus + s.K_l / s.porosity for s in soils]
-    analytic = layered.rod_frequencies(ground.thickness, modulus,
+    analytic = layered.rod_frequencies(req.ground.thickness, modulus,
                                        [s.density for s in soils], 3)
     damping = None
-    shaking = shaking0
-    if p.rayleigh:
-        xi, f1, f2 = p.rayleigh if len(p.rayleigh) == 3 else (p.rayleigh[0], eig[0],
-                                                               5 * eig[0])
+    if req.rayleigh:
+        xi = req.rayleigh[0]
+        f1, f2 = req.rayleigh[1:] if len(req.rayleigh) == 3 else (eig[0], 5 * eig[0])
         damping = (xi, f1, f2)
-        shaking = dataclasses.replace(shaking0, **dict(zip(("a0", "a1"), rayleigh(xi, f1,
-                                                                                    f2))))
-    summary_path = p.summary or os.path.join(p.output, "summary.json")
-    return DynamicPlan(body=body, ground=ground, shaking=shaking, periodic=periodic,
-                       loading=loading, motion=motion, phases=p.phases, t_end=p.t_end,
-                       record_dt=p.record_dt, depths=tuple(p.record_depths), eigen_hz=eig,
-                       eigen_solver=solver, analytic_hz=analytic, damping=damping,
-                       outputs=output.Outputs(p.output, summary_path, p.figures,
-                                              p.figure_format),
-                       run={"id": None, "options": checkpoint.recorded(p)},
-                       signature=checkpoint.signature(p), restart=p.restart,
-                       cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
-                                p.progress))
+        shaking = dataclasses.replace(shaking, **dict(zip(("a0", "a1"), rayleigh(xi, f1,
+                                                                                   f2))))
+    return DynamicPlan(body=body, ground=req.ground, shaking=shaking, periodic=req.periodic,
+                       loading=req.loading, motion=motion, phases=req.phases,
+                       t_end=req.t_end, record_dt=req.record_dt, depths=req.depths,
+                       eigen_hz=eig, eigen_solver=solver, analytic_hz=analytic,
+                       damping=damping, outputs=req.outputs, run=dict(req.run),
+                       signature=req.signature, restart=req.restart, cadence=req.cadence)
 
 
 def run(p, comm) -> int:
-    """Run the dynamic scene ``p``; returns 0."""
+    """Run the dynamic scene of the options ``p``; returns 0."""
     t_wall = time.perf_counter()
     signals.stage("set-up: the options' checks")
-    restart = checkpoint.read(p.restart, checkpoint.signature(p)) if p.restart else None
-    summary_path = p.summary or os.path.join(p.output, "summary.json")
-    if restart is not None and not p.overwrite:
-        checkpoint.check_folder(p.output, summary_path, p.restart, restart[3], comm)
-    plan = plan_of(p, comm)
+    req = Request.from_options(p)
+    restart = checkpoint.read(req.restart, req.signature) if req.restart else None
+    if restart is not None and not req.overwrite:
+        checkpoint.check_folder(req.outputs.folder, req.outputs.summary, req.restart,
+                                restart[3], comm)
+    plan = plan_of(req, comm)
     plan.run["id"] = restart[3] if restart and restart[3] else checkpoint.new_run_id(comm)
     if plan.phases == 2:
         from .saturated import SaturatedColumn as Model
@@ -182,7 +218,7 @@ def run(p, comm) -> int:
         Model = NodalModel
     model = Model(comm, plan)
     try:
-        return _run(plan, model, restart, comm, t_wall, provenance.options(p))
+        return _run(plan, model, restart, comm, t_wall, req.provenance)
     finally:
         model.destroy()
 

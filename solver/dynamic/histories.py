@@ -1,13 +1,14 @@
 """What a dynamic run records: histories at depths, peaks with depth, and what is made of
-them (``histories.csv``, ``spectra.csv``, ``profiles.csv``, the summary's ``dynamic`` block).
+them (``histories.csv``, ``spectra.csv``, ``peaks.csv``, the summary's ``dynamic`` block).
 
 The records are row means: at each recorded depth the mean over a row of the lattice's
 nodes (one phase: the state lives on the nodes) or of material points (two phases: the
 pore pressure lives on the points), so that a body of any width records as a column. Each
 sample holds, per depth, a_x, v_x, u_x, a_y, v_y, u_y (m/s2, m/s, m: accelerations and
 velocities absolute, displacements relative to the base) and p (Pa, the excess pore
-pressure; NaN without water). Peaks over time are kept for every row (the profiles), the
-full histories only at the recorded depths.
+pressure; NaN without water). Peaks over time are kept for every row (peaks.csv), the
+full histories only at the recorded depths. (The strain of a row is that of the interval
+below it; the shear strain du_x/dy of x shaking, the axial du_y/dy of y.)
 """
 
 from __future__ import annotations
@@ -87,14 +88,16 @@ def write_histories(path, rec: Recorder, water: bool) -> None:
     output.write_text(path, "\n".join(lines) + "\n")
 
 
-def write_profiles(path, rec: Recorder, H: float) -> None:
-    """profiles.csv: the peaks with depth, one row per row of the lattice (the strain of
-    the interval below it; the base row has none)."""
-    lines = ["depth_m,peak_a_m_s2,peak_strain,peak_p_pa"]
+def write_peaks(path, rec: Recorder, H: float, water: bool) -> None:
+    """peaks.csv: the peaks over time with depth, one row per row of nodes or points from
+    the surface down: |a| in the shaking direction, the strain of the interval below the
+    row (none at the base) and, with water, the excess pore pressure."""
+    head = "depth_m,peak_a_m_s2,peak_strain" + (",peak_p_pa" if water else "")
+    lines = [head]
     for k in range(len(rec.heights) - 1, -1, -1):
         s = rec.peak_strain[k - 1] if k > 0 else math.nan
-        lines.append(f"{H - rec.heights[k]:.6g},{rec.peak_a[k]:.6e},{s:.6e},"
-                     f"{rec.peak_p[k]:.6e}")
+        row = f"{H - rec.heights[k]:.6g},{rec.peak_a[k]:.6e},{s:.6e}"
+        lines.append(row + (f",{rec.peak_p[k]:.6e}" if water else ""))
     output.write_text(path, "\n".join(lines) + "\n")
 
 

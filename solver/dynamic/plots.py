@@ -17,7 +17,7 @@ def draw(plan, rec, spec, exact, water: bool) -> dict:
     files = {}
     files.update(output.save_figures(_histories(plt, plan, rec, exact, water), folder,
                                      "histories", formats))
-    files.update(output.save_figures(_profiles(plt, plan, rec, water), folder, "profiles",
+    files.update(output.save_figures(_peaks(plt, plan, rec, water), folder, "peaks",
                                      formats))
     if spec is not None:
         files.update(output.save_figures(_spectra(plt, plan, spec), folder, "spectra",
@@ -90,7 +90,7 @@ def _spectra(plt, plan, spec):
     return fig
 
 
-def _profiles(plt, plan, rec, water):
+def _peaks(plt, plan, rec, water):
     H = plan.body.height
     depth = H - rec.heights
     mid = H - (rec.heights[1:] + rec.heights[:-1]) / 2

@@ -1,5 +1,5 @@
 """The reporting of a dynamic run: what it prints before and while stepping, and what it
-writes after: histories, profiles and spectra (:mod:`solver.dynamic.histories`), the exact
+writes after: histories, peaks and spectra (:mod:`solver.dynamic.histories`), the exact
 response where the scene is the one-dimensional column it describes, the figures
 (:mod:`solver.dynamic.plots`), the XDMF series and the summary's ``dynamic`` block."""
 
@@ -154,8 +154,8 @@ def finish(plan, model, rec, series, summary, comm, t_wall) -> int:
     if comm.getRank() == 0:
         files["histories"] = os.path.join(folder, "histories.csv")
         histories.write_histories(files["histories"], rec, model.water)
-        files["profiles"] = os.path.join(folder, "profiles.csv")
-        histories.write_profiles(files["profiles"], rec, plan.body.height)
+        files["peaks"] = os.path.join(folder, "peaks.csv")
+        histories.write_peaks(files["peaks"], rec, plan.body.height, model.water)
         if spec is not None:
             files["spectra"] = os.path.join(folder, "spectra.csv")
             histories.write_spectra(files["spectra"], spec)

@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 from ..common.errors import InputError
+from . import checks
 from .scenefile import PREFIX, pairs as file_pairs
 
 EIGEN, CONSOLIDATION, DYNAMIC = "eigen", "consolidation", "dynamic"
@@ -46,96 +47,6 @@ class Option:
     length: int = 0      # fixed list length, 0 for any
 
 
-def _positive(v):
-    return None if v > 0 else "must be > 0"
-
-
-def _nonnegative(v):
-    return None if v >= 0 else "must be >= 0"
-
-
-def _all_positive(vs):
-    return None if all(v > 0 for v in vs) else "every entry must be > 0"
-
-
-def _all_at_least_one(vs):
-    return None if all(v >= 1 for v in vs) else "every entry must be >= 1"
-
-
-def _all_nonnegative(vs):
-    return None if all(v >= 0 for v in vs) else "every entry must be >= 0"
-
-
-def _rayleigh(vs):
-    """-mpm_rayleigh: XI in [0, 1), then none or two frequencies F1 < F2 (Hz)."""
-    if len(vs) not in (1, 3):
-        return "give XI or XI,F1,F2"
-    if not 0 <= vs[0] < 1:
-        return "XI must lie in [0, 1)"
-    if len(vs) == 3 and not 0 < vs[1] < vs[2]:
-        return "needs 0 < F1 < F2"
-    return None
-
-
-def _motion(v):
-    """-mpm_base_motion: its form (a file is read when the run starts)."""
-    from ..model.motion import parse
-
-    try:
-        parse(v)
-    except ValueError as exc:
-        return str(exc)
-    return None
-
-
-def _poisson(v):
-    return None if 0 <= v < 0.5 else "must lie in [0, 0.5)"
-
-
-def _open_unit(v):
-    return None if 0 < v < 1 else "must lie in (0, 1)"
-
-
-def _at_least_one(v):
-    return None if v >= 1 else "must be >= 1"
-
-
-def _scaling(v):
-    """-mpm_mass_scaling: none, auto or a finite number S > 0."""
-    if v in ("none", "auto"):
-        return None
-    try:
-        S = _parse_float(v)
-    except ValueError:
-        return "choose none, auto or a number S > 0"
-    return None if S > 0 else "must be none, auto or > 0"
-
-
-def _fraction(v):
-    """-mpm_flip: auto or a number in [0, 1]."""
-    if v == "auto":
-        return None
-    try:
-        f = _parse_float(v)
-    except ValueError:
-        return "choose auto or a number in [0, 1]"
-    return None if 0 <= f <= 1 else "must be auto or lie in [0, 1]"
-
-
-def _figure_formats(v):
-    from .output import figure_formats
-
-    try:
-        figure_formats(v)
-    except ValueError as exc:
-        return str(exc)
-    return None
-
-
-def _tolerance(v):
-    return None if 0 < v < 1 else "must lie in (0, 1)"
-
-
 SPEC = [
     Option("analysis", "str", EIGEN, "what to compute: eigen (frequencies and modes), "
            "consolidation, dynamic (the body shaken at its base or loaded suddenly, in time)",
@@ -143,26 +54,26 @@ SPEC = [
     Option("element", "str", "q4", "background cell: q4 (bilinear), q8 (serendipity), "
            "q9 (Lagrange)", choices=("q4", "q8", "q9")),
     Option("cells", "ints", (1, 10), "cells across and up, NX,NY", length=2,
-           check=_all_at_least_one),
+           check=checks.all_at_least_one),
     Option("size", "floats", (0.1, 1.0), "body width and height W,H (m); the grid covers it",
-           length=2, check=_all_positive),
-    Option("ppc", "int", 2, "material points per cell per direction", check=_at_least_one),
+           length=2, check=checks.all_positive),
+    Option("ppc", "int", 2, "material points per cell per direction", check=checks.at_least_one),
     Option("points", "str", "uniform", "point placement: uniform (sub-cell centres, MPM) or "
            "gauss (Gauss points: the plain FE model)", choices=("uniform", "gauss")),
     Option("layers", "floats", (), "thicknesses of horizontal soil layers from the surface "
            "down, t1,t2,... (m), summing to the height H, each at least a cell high, the "
            "interfaces on cell boundaries; default: one layer. Options 'per layer' take one "
            "value (every layer) or one per layer, in this order",
-           check=_all_positive),
+           check=checks.all_positive),
     Option("E", "float_or_floats", 10.0e6, "Young's modulus of the soil skeleton (Pa), per "
-           "layer", check=_positive),
-    Option("nu", "float_or_floats", 0.0, "Poisson's ratio, per layer", check=_poisson),
+           "layer", check=checks.positive),
+    Option("nu", "float_or_floats", 0.0, "Poisson's ratio, per layer", check=checks.poisson),
     Option("rho_s", "float_or_floats", 2700.0, "solid grain density (kg/m3), per layer",
-           check=_positive),
+           check=checks.positive),
     Option("rho_l", "float", 1000.0, "liquid density (kg/m3), one for every layer (0: "
            "a dry soil, dynamic one-phase only)",
-           check=_nonnegative),
-    Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=_open_unit),
+           check=checks.nonnegative),
+    Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=checks.open_unit),
     Option("bc_left", "str", "x", "fixed displacement components on x = 0", BOTH,
            choices=BC_CHOICES),
     Option("bc_right", "str", "x", "fixed displacement components on x = W", BOTH,
@@ -171,22 +82,22 @@ SPEC = [
            BOTH, choices=BC_CHOICES),
     Option("bc_top", "str", "none", "fixed displacement components on y = H",
            BOTH, choices=BC_CHOICES),
-    Option("nmodes", "int", 5, "eigenpairs to report", BOTH, check=_at_least_one),
+    Option("nmodes", "int", 5, "eigenpairs to report", BOTH, check=checks.at_least_one),
     Option("eigen_solver", "strs", ("jacobi", "slepc"), "eigen solvers to run, one or both",
            BOTH,
            choices=("jacobi", "slepc")),
     Option("jacobi_tol", "float", 1e-15, "Jacobi convergence tolerance xi, eq. (4)",
-           check=_tolerance),
+           check=checks.tolerance),
     Option("jacobi_max_sweeps", "int", 50, "Jacobi sweeps before giving up (exit code 3)",
-           check=_at_least_one),
+           check=checks.at_least_one),
     # -- two-phase consolidation --------------------------------------------------------
-    Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", MOVING, _positive),
+    Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", MOVING, checks.positive),
     Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", MOVING,
-           _positive),
+           checks.positive),
     Option("k", "float_or_floats", 2.5e-4, "hydraulic conductivity (m/s), defined with g = "
-           "9.81 m/s2, per layer", MOVING, _positive),
+           "9.81 m/s2, per layer", MOVING, checks.positive),
     Option("gravity", "float", 0.0, "body force, acting downwards (m/s2)", (CONSOLIDATION,),
-           _nonnegative),
+           checks.nonnegative),
     Option("initial_state", "str", "deposited", "the state before the load, with gravity: "
            "deposited (a fresh deposit, pore pressure and effective stress 0: it consolidates "
            "under its own weight) or geostatic (hydrostatic pore pressure and K0 effective "
@@ -194,15 +105,15 @@ SPEC = [
            "gravity)", (CONSOLIDATION,), choices=("deposited", "geostatic")),
     Option("K0", "float_or_floats", float("nan"), "earth pressure coefficient at rest "
            "sigma'_h / sigma'_v of the geostatic state, per layer (default: each layer's "
-           "nu / (1 - nu))", (CONSOLIDATION,), _nonnegative),
+           "nu / (1 - nu))", (CONSOLIDATION,), checks.nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa); dynamic: "
            "applied suddenly at t = 0, and only when given",
-           MOVING, _nonnegative),
+           MOVING, checks.nonnegative),
     Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
            "footing on a half model with rollers on its axis x = 0 (default: the whole top)",
            MOVING, length=2),
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
-           (CONSOLIDATION,), _nonnegative),
+           (CONSOLIDATION,), checks.nonnegative),
     Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable "
            "(no flow relative to the skeleton); left and right with q4 cells only; none: "
            "no drained side (undrained loading)",
@@ -215,12 +126,12 @@ SPEC = [
            "explicit step is given; it prints why)", (CONSOLIDATION,),
            choices=("auto", "explicit", "implicit")),
     Option("implicit_steps", "int", 8, "implicit scheme: time steps per doubling of time "
-           "(report times are step ends)", (CONSOLIDATION,), _at_least_one),
+           "(report times are step ends)", (CONSOLIDATION,), checks.at_least_one),
     Option("pressure_stabilization", "str", "auto", "implicit scheme: ppp (Dohrmann and "
            "Bochev's polynomial pressure projection, which keeps the undrained start free of "
            "oscillations), none, auto (ppp)", (CONSOLIDATION,), choices=("auto", "ppp", "none")),
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
-           "smallest critical time step", (CONSOLIDATION,), _positive),
+           "smallest critical time step", (CONSOLIDATION,), checks.positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
            (CONSOLIDATION,), lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
     Option("stability_analysis", "bool", True, "compute the discrete stability limit of the "
@@ -232,16 +143,16 @@ SPEC = [
            "run reports (p at the monitor point, the profile's L2 in % of q, U from the "
            "settlement and from the pore pressure) at T_v = 0.02, 0.2, 0.5 and 1; the run "
            "checks its own errors (met or NOT met) and predicts its time from its first "
-           "steps", (CONSOLIDATION,), _positive),
+           "steps", (CONSOLIDATION,), checks.positive),
     Option("work_precision", "str", "", "work-precision data for -mpm_target_error (default: "
            "the data measured on the paper's column, shipped with the solver)",
            (CONSOLIDATION,)),
     Option("allow_unstable", "bool", False, "run even with dt more than twice a stability "
            "limit (for studies of blow-up)", (CONSOLIDATION,)),
     Option("Tv_end", "float", 1.0, "end of the run as Terzaghi time factor T_v",
-           (CONSOLIDATION,), _positive),
+           (CONSOLIDATION,), checks.positive),
     Option("Tv_report", "floats", (0.02, 0.5, 1.0), "T_v at which pore pressures are reported",
-           (CONSOLIDATION,), _all_positive),
+           (CONSOLIDATION,), checks.all_positive),
     Option("monitor_height", "float", float("nan"), "height of the monitor point (m); "
            "default: the highest material point below mid-height", (CONSOLIDATION,)),
     Option("monitor", "floats", (), "the monitor point x,y (m): the material point nearest "
@@ -256,9 +167,9 @@ SPEC = [
     Option("fe_cells", "ints", (), "the FE reference's Q9/Q4 cells NX,NY (default: square "
            "cells, 32 across the shorter side or fewer to keep about 2048, the layer "
            "interfaces on cell boundaries)", (CONSOLIDATION,), length=2,
-           check=_all_at_least_one),
+           check=checks.all_at_least_one),
     Option("output_every", "int", 0, "write point fields every N steps and at the report "
-           "times (0: at the report times only)", MOVING, _nonnegative),
+           "times (0: at the report times only)", MOVING, checks.nonnegative),
     Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "
            "accelerations, 0 for none (it opposes the settlement too: docs/studies.md)",
            (CONSOLIDATION,),
@@ -274,7 +185,7 @@ SPEC = [
            "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
     Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
            "(0: PIC), or auto (1; 0.99 for q8 with the corner pressure projection, whose "
-           "pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), _fraction),
+           "pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), checks.fraction),
     Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
@@ -297,11 +208,11 @@ SPEC = [
     Option("mass_scaling", "str", "none", "factor S on both phases' inertia (not on drag or "
            "weight): none (S = 1), auto (the largest S whose inertia error at the earliest "
            "report time stays within 0.2 % of q, docs/method.md), or a number S > 0; the "
-           "wave limits grow as sqrt(S)", (CONSOLIDATION,), _scaling),
+           "wave limits grow as sqrt(S)", (CONSOLIDATION,), checks.scaling),
     Option("checkpoint_every", "int", 0, "write OUTPUT/checkpoint.npz every N steps (0: never)",
-           MOVING, _nonnegative),
+           MOVING, checks.nonnegative),
     Option("checkpoint_seconds", "float", 0.0, "also write it every S seconds of wall time",
-           MOVING, _nonnegative),
+           MOVING, checks.nonnegative),
     Option("restart", "str", "", "continue the run stored in this checkpoint file, with its "
            "options (-mpm_restart CK alone); options beside it may change only the output, "
            "the end and report times and the cadence of fields, checkpoints and progress",
@@ -310,7 +221,7 @@ SPEC = [
            "holds another run's results (its summary, field series or checkpoint); the "
            "field series starts again from the checkpoint's own times", MOVING),
     Option("progress", "float", 10.0, "seconds between progress lines (0: none)",
-           MOVING, _nonnegative),
+           MOVING, checks.nonnegative),
     # -- dynamics: the body shaken at its base (or loaded suddenly) -----------------------
     Option("phases", "int", 1, "1: the solid alone with the mixture's density (dry or total "
            "stress; a dry soil sets -mpm_rho_l 0); 2: saturated, the v-w step (pore pressure; "
@@ -318,36 +229,36 @@ SPEC = [
     Option("base_motion", "str", "none", "the input motion: none, ricker:F0,AMP (Hz, peak "
            "m/s2, centred at 1.5/F0 s), sine:F,AMP,CYCLES, or a record file: CSV t (s), a "
            "(m/s2), or a PEER .AT2 (g); interpolated onto the steps, zero after its end",
-           (DYNAMIC,), _motion),
+           (DYNAMIC,), checks.motion),
     Option("base_motion_scale", "float", 1.0, "factor on the input motion", (DYNAMIC,),
-           _positive),
+           checks.positive),
     Option("base_direction", "str", "x", "direction of the base motion: x (vertically "
            "propagating shear waves) or y (compression waves)", (DYNAMIC,), choices=("x", "y")),
     Option("base", "str", "compliant", "rigid (the motion is the base's own, a within "
            "motion) or compliant (elastic rock under the soil: a Lysmer dashpot driven by the "
            "rock-outcrop motion)", (DYNAMIC,), choices=("rigid", "compliant")),
     Option("rock_Vs", "float", 760.0, "shear-wave speed of the rock under a compliant base "
-           "(m/s)", (DYNAMIC,), _positive),
+           "(m/s)", (DYNAMIC,), checks.positive),
     Option("rock_Vp", "float", 1520.0, "compression-wave speed of the rock (m/s)",
-           (DYNAMIC,), _positive),
-    Option("rock_rho", "float", 2200.0, "density of the rock (kg/m3)", (DYNAMIC,), _positive),
+           (DYNAMIC,), checks.positive),
+    Option("rock_rho", "float", 2200.0, "density of the rock (kg/m3)", (DYNAMIC,), checks.positive),
     Option("bc_sides", "str", "rollers", "the sides: rollers (held across the shaking "
            "direction) or periodic (left and right nodes tied: a body of any width moves as "
            "a column; not with a load on part of the top)", (DYNAMIC,),
            choices=("rollers", "periodic")),
     Option("rayleigh", "floats", (), "Rayleigh damping XI[,F1,F2]: ratio XI at F1 and F2 "
            "(Hz; default f1 and 5 f1 of the Jacobi eigen analysis of the same column); "
-           "none when not given", (DYNAMIC,), _rayleigh),
-    Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), _positive),
+           "none when not given", (DYNAMIC,), checks.rayleigh),
+    Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), checks.positive),
     Option("record_depths", "floats", (), "depths below the surface of the recorded "
-           "histories (m); the surface and the base always", (DYNAMIC,), _all_nonnegative),
+           "histories (m); the surface and the base always", (DYNAMIC,), checks.all_nonnegative),
     Option("record_dt", "float", 0.005, "time between recorded samples (s; the step's "
-           "multiple nearest it)", (DYNAMIC,), _positive),
+           "multiple nearest it)", (DYNAMIC,), checks.positive),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),
     Option("figure_format", "str", "png", "formats of the figures, comma-separated: png, pdf, "
-           "svg (e.g. png,pdf)", check=_figure_formats),
+           "svg (e.g. png,pdf)", check=checks.figure_formats),
     Option("debug", "bool", False, "show the Python traceback of a failure"),
 ]
 
@@ -382,18 +293,6 @@ def params_class(spec):
 Params = params_class(SPEC)    # module level, so that the default parameters pickle
 
 
-LIMIT = 1e30   # larger magnitudes overflow the products the solver forms
-
-
-def _parse_float(text):
-    value = float(text)
-    if not math.isfinite(value):
-        raise ValueError("not a finite number")
-    if abs(value) > LIMIT:
-        raise ValueError(f"outside the range this solver handles (|x| <= {LIMIT:g})")
-    return value
-
-
 def _parse_int(text):
     value = float(text)
     if not math.isfinite(value) or value != int(value):
@@ -405,13 +304,13 @@ def _parse_int(text):
 
 def _parse(opt: Option, text: str):
     scalar = {"int": _parse_int, "ints": _parse_int,
-              "float": _parse_float, "floats": _parse_float}.get(opt.kind, str.strip)
+              "float": checks.parse_float, "floats": checks.parse_float}.get(opt.kind, str.strip)
     if opt.kind in ("ints", "floats", "strs", "float_or_floats"):
         parts = [p.strip() for p in text.split(",")]
         if any(p == "" for p in parts):
             raise ValueError("malformed list (empty entry)")
         if opt.kind == "float_or_floats":    # one value stays a float, as a "float" option's
-            values = tuple(_parse_float(p) for p in parts)
+            values = tuple(checks.parse_float(p) for p in parts)
             return values[0] if len(values) == 1 else values
         value = tuple(scalar(p) for p in parts)
         if opt.length and len(value) != opt.length:
