@@ -95,6 +95,13 @@ def _reference_words(p) -> set:
 
     if p.analysis == "eigen":
         return {"SLEPc", "layered rod" if len(p.layers) > 1 else "analytic rod"}
+    if p.analysis == "dynamic":
+        # Two phases: the saturated column's waves, then Terzaghi; one phase: the exact
+        # response of the column on rock, unless Rayleigh damping's mass part rules it out.
+        if p.phases == 2:
+            return {"solver/references/waves.py", "Terzaghi"}
+        return {"Jacobi", "layered rod"} if p.rayleigh else \
+            {"solver/references/site.py", "Jacobi"}
     t = typed(p)
     if plan.no_reference(t.body, t.loading):
         return {"FE", "solver/references/biot.py", "static"}
@@ -112,8 +119,10 @@ def test_the_scenes_table_is_cases():
     for name, (_, analysis, scheme, what, mesh, reference, wall) in zip(names, rows):
         p = _scene(name)
         assert analysis == p.analysis, name
-        # A scene names its scheme, or auto picks the implicit one (test_implicit.py).
-        assert scheme == ("-" if p.analysis == "eigen" else
+        # A scene names its scheme, or auto picks the implicit one (test_implicit.py); the
+        # dynamic analysis steps explicitly.
+        assert scheme == ("-" if p.analysis == "eigen" else "explicit"
+                          if p.analysis == "dynamic" else
                           "implicit" if p.scheme == "auto" else p.scheme), name
         nx, ny = p.cells
         assert mesh == f"{p.element.upper()} {nx} x {ny}, {p.ppc} x {p.ppc}", name
@@ -143,7 +152,8 @@ def test_every_file_of_the_outputs_table_is_one_the_code_writes():
     source = _solver_sources()
     for name, cells in readme_outputs().items():
         literal = name.rsplit(".", 1)[0] if name.endswith(".png") else name
-        literal = "points.xdmf" if name == "points_<step>.h5" else literal
+        literal = {"points_<step>.h5": "points.xdmf",
+                   "nodes_<step>.h5": "nodes.xdmf"}.get(name, literal)
         assert f'"{literal}"' in source, f"{name}: no solver module writes it"
         assert all(c.strip() for c in cells.split(" | ")), name
 

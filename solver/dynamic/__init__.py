@@ -1,7 +1,17 @@
-"""Dynamics of a soil body shaken at its base (issue 30; the analysis is being built): the
-explicit one-phase step on the material points under a base motion.
+"""Dynamics (issue 30): ``-mpm_analysis dynamic``, the body shaken at its base or loaded
+suddenly, stepped in time.
 
-- ``column``: the shaken body (rigid or compliant base, Rayleigh damping), stepped in time.
+- ``driver``: the analysis: the options read once (``Request``), the plan (motion, natural
+  frequencies, Rayleigh damping), the time loop with its records and checkpoints;
+- ``column``: the one-phase shaken body (rigid or compliant base, Rayleigh damping,
+  periodic sides, a sudden load), stepped by central differences;
+- ``saturated``: two phases under a sudden load: the explicit v-w step without dampers,
+  with the saturated column's references;
+- ``histories``: what a run records (row means at depths, peaks with depth) and the
+  histories, peaks and spectra it writes;
+- ``reporting``: the lines printed, the exact response of a one-dimensional scene, the
+  XDMF series, the summary's ``dynamic`` block;
+- ``plots``: the figures.
 
 May import: consolidation, consolidation.implicit, consolidation.explicit, eigen, io,
 references, model, common.

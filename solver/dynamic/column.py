@@ -1,15 +1,20 @@
-"""A soil body shaken at its base: explicit one-phase dynamics on the material points (issue
-30, the numerical core of the coming ``-mpm_analysis dynamic``).
+"""A soil body shaken at its base: explicit one-phase dynamics on the material points, the
+step of ``-mpm_analysis dynamic -mpm_phases 1`` (issue 30).
 
 One phase (the solid with the mixture's density, a dry or total-stress analysis), linear
 elastic, small strain: the points stay where they are, so the step is the eigen model's own
 K (``scene.build``: the same points, the same integration) and its mass lumped by diagonal
-scaling (HRZ, positive for every cell), with Rayleigh damping C = a0 M + a1 K:
+scaling (HRZ, positive for every cell), with Rayleigh damping C = a0 M + a1 K and a sudden
+surface load f:
 
-    m a = f(t) - K u - a0 m v - a1 K v,     central differences (v at half steps)
+    m (v' - v) / dt = f - K u - a0 m v - a1 K (v' + v) / 2 [- m a_b(t)] [+ dashpot],
+    u' = u + dt v'      (central differences, v at half steps)
 
-The base moves in one direction (``x``: vertically propagating shear waves, the sides held
-vertically; ``y``: compression waves, the sides on rollers):
+The stiffness-proportional damping is Crank-Nicolson (one LU of m + dt a1 K / 2, made once):
+taken explicitly it damps the grid's fastest mode at xi = a1 w_max / 2 and its stability
+limit cuts the step many-fold. The base moves in one direction (``x``: vertically
+propagating shear waves, the sides held vertically; ``y``: compression waves, the sides on
+rollers):
 - ``rigid``: the input is the motion of the base itself (a "within" motion). In the frame
   of the base, u_rel = u - u_b, the base is fixed and every mass feels -m a_b(t); the
   absolute acceleration is the relative one plus a_b;
@@ -18,10 +23,13 @@ vertically; ``y``: compression waves, the sides on rollers):
   the rock's outcrop motion: the incident wave is half of it, applied as the force
   2 rho_r V_r v_inc = rho_r V_r v_outcrop. The dashpot is taken implicitly (explicit, it is
   unstable once dt rho_r V_r A / m exceeds 2, which the wave step reaches).
+Periodic sides tie each right-side node to the left-side one of its row by a tying matrix T
+(reduced DOFs): K_r = T^T K T, masses, dashpots and forces summed by T^T.
 
 The step: dt = SAFETY (2 / w_max)(sqrt(1 + xi^2) - xi), w_max^2 <= max_i sum_j |K_ij| / m_i
-(Gershgorin: a bound, so the step is stable) and xi = a0 / (2 w_max) + a1 w_max / 2 the
-damping of the fastest mode. Vectors are PETSc Vecs over the free DOFs, one MatMult a step.
+(Gershgorin: a bound, so the step is stable) and xi = a0 / (2 w_max) the damping of the
+fastest mode by the explicit mass-proportional part. Vectors are PETSc Vecs over the free
+(reduced) DOFs, one MatMult a step (two, and a triangular solve, with a1).
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..common import signals
-from ..common.errors import InputError, Interrupted, NumericalError, entry
+from ..common.errors import InputError, Interrupted, NumericalError, describe, entry
 from ..eigen.frequency import lowest
 from ..io import checkpoint, output, provenance
 from ..io import records as record_files
@@ -98,7 +98,10 @@ class Request:
     @classmethod
     def from_options(cls, p) -> "Request":
         summary = p.summary or os.path.join(p.output, "summary.json")
-        loading = Loading(load=p.load, extent=tuple(p.load_extent)) if "load" in p.given \
+        # The load acts when given (its default is consolidation's), by this command or by
+        # the start of the run a restart continues.
+        given = set(p.given) | set(checkpoint.given_at_start(p.restart))
+        loading = Loading(load=p.load, extent=tuple(p.load_extent)) if "load" in given \
             else None
         return cls(body=Body.from_options(p), ground=Ground.from_options(p), phases=p.phases,
                    motion=p.base_motion, scale=p.base_motion_scale,
@@ -111,7 +114,8 @@ class Request:
                    outputs=output.Outputs(p.output, summary, p.figures, p.figure_format),
                    cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
                             p.progress), restart=p.restart, overwrite=p.overwrite,
-                   run={"id": None, "options": checkpoint.recorded(p)},
+                   run={"id": None, "options": checkpoint.recorded(p),
+                        "given": sorted(given)},
                    signature=checkpoint.signature(p), provenance=provenance.options(p))
 
 
@@ -129,6 +133,11 @@ def validate(req: Request) -> None:
     if not moving and req.loading is None:
         raise InputError("-mpm_base_motion none: nothing moves the body (give a base "
                          "motion or -mpm_load)")
+    if req.loading is not None and req.phases == 1 and req.direction == "x" \
+            and not req.periodic:
+        raise InputError("-mpm_load: with -mpm_base_direction x the sides are held "
+                         "vertically and carry it; give -mpm_base_direction y, or "
+                         "-mpm_bc_sides periodic")
     extent = req.loading.extent if req.loading is not None else ()
     if extent and not 0 <= extent[0] < extent[1] <= W:
         raise InputError(f"-mpm_load_extent {extent[0]:g},{extent[1]:g}: outside the top "
@@ -217,10 +226,16 @@ def run(p, comm) -> int:
     else:
         Model = NodalModel
     model = Model(comm, plan)
+    done = False
     try:
-        return _run(plan, model, restart, comm, t_wall, req.provenance)
+        code = _run(plan, model, restart, comm, t_wall, req.provenance)
+        done = True
+        return code
     finally:
-        model.destroy()
+        # After a failure on some ranks only, the others wait in a collective: destroying
+        # (collective too) would hang; the caller aborts MPI.
+        if done or comm.getSize() == 1:
+            model.destroy()
 
 
 class NodalModel:
@@ -260,12 +275,10 @@ class NodalModel:
 
     def means(self, t: float) -> np.ndarray:
         """The row means (rows x COLUMNS) at t (s), the step from t just taken."""
-        b, dt = self.body, self.dt
-        v_half = b.v.getArray()
         a = self.a
-        v = v_half - a * dt / 2
-        u = b.u.getArray() - dt * v_half
+        u, v = self._at_step_start()
         ny = len(self.heights)
+        b = self.body
         sums = np.stack([np.bincount(self.key, weights=self._full(x), minlength=2 * ny)
                          for x in (a, v, u)])
         sums = self.mpi.allreduce(sums) / self.nx
@@ -280,6 +293,12 @@ class NodalModel:
         else:                                # displacements relative to the base
             out[:, [2, 5]] -= out[0, [2, 5]]
         return out
+
+    def _at_step_start(self) -> tuple:
+        """(u, v) at the time t of the step just taken (this rank's reduced values): the
+        step left u at t + dt and v at t + dt / 2."""
+        v_half = self.body.v.getArray()
+        return self.body.u.getArray() - self.dt * v_half, v_half - self.a * self.dt / 2
 
     def check(self, step: int, t: float) -> None:
         local = float(np.max(np.abs(self.body.v.getArray()), initial=0.0))
@@ -306,12 +325,13 @@ class NodalModel:
         self.body.v.setArray(whole[at, 2][self.kept])
 
     def fields(self) -> tuple:
-        """(node coordinates (N, 2), {name: (N, 3)}) of every node, natural order (rank
-        0; None elsewhere): displacement and velocity (relative to a rigid base)."""
+        """(node coordinates (N, 2), {name: (N, 3)}) of every node at the time of the step
+        just taken, natural order (rank 0; None elsewhere): displacement, velocity and
+        acceleration (relative to a rigid base)."""
         b = self.body
         idx = b.free.getIndices()
-        u, v = (self._full(x) for x in b.state())
-        parts = self.mpi.gather(np.column_stack([idx, u, v, self.a_full()]), root=0)
+        u, v = (self._full(x) for x in self._at_step_start())
+        parts = self.mpi.gather(np.column_stack([idx, u, v, self._full(self.a)]), root=0)
         if parts is None:
             return None
         whole = np.concatenate(parts)
@@ -325,9 +345,6 @@ class NodalModel:
         j, i = np.divmod(np.arange(n), nx)
         xy = np.column_stack([i * b.grid.size[0] / (nx - 1), self.heights[j]])
         return xy, out
-
-    def a_full(self) -> np.ndarray:
-        return self._full(self.a)
 
     def destroy(self):
         scene.destroy(self.vec, self.full, self.body)
@@ -375,12 +392,14 @@ def _run(plan, model, restart, comm, t_wall, recorded) -> int:
                 if k % out_every == 0 or k == nsteps:
                     series.write(k, t)
                 due = ckpt_seconds > 0 and time.perf_counter() - last_ckpt > ckpt_seconds
-                flags = model.mpi.allreduce(np.array([stop.seen, int(due)]), op=_max()) \
-                    if (ckpt_seconds > 0 or k % 50 == 0) else (0, 0)
-                if flags[0] or flags[1] or (ckpt_every and k % ckpt_every == 0):
+                # Every rank stops at the same step: a signal (bit 1) or a checkpoint due
+                # by the clock (bit 0) on any rank is every rank's.
+                flags = model.mpi.allreduce(2 * stop.seen + int(due), op=_bor()) \
+                    if (ckpt_seconds > 0 or k % 50 == 0) else 0
+                if flags or (ckpt_every and k % ckpt_every == 0):
                     save(k + 1)
                     last_ckpt = time.perf_counter()
-                if flags[0]:
+                if flags & 2:
                     raise Interrupted(f"stopped by {stop.name} at step {k} (t = {t:.6g} "
                                       f"s); checkpoint {ckpt}; continue with -mpm_restart "
                                       f"{ckpt}", stage="stepping", agreed=True)
@@ -388,9 +407,13 @@ def _run(plan, model, restart, comm, t_wall, recorded) -> int:
                     last_print = time.perf_counter()
                     PETSc.Sys.Print(reporting.progress_line(rec, k, nsteps, t, t0, first),
                                     comm=comm)
-        except (NumericalError, Interrupted) as exc:
-            summary.update(completed=False, steps=k, wall_seconds=time.perf_counter() - t_wall,
-                           error=entry(str(exc), exc.exit_code, "stepping"))
+        except Exception as exc:     # noqa: BLE001  (written down, then raised on)
+            known = isinstance(exc, (NumericalError, Interrupted))
+            summary.update(completed=False, step=k, wall_seconds=time.perf_counter() - t_wall,
+                           error=entry(str(exc) if known else describe(exc),
+                                       exc.exit_code if known else 5, "stepping"))
+            if isinstance(exc, Interrupted):
+                summary["interrupted"] = True
             if comm.getRank() == 0:
                 output.write_json(plan.outputs.summary,
                                   dict(summary, files={"summary": plan.outputs.summary}))
@@ -403,3 +426,9 @@ def _max():
     from mpi4py import MPI
 
     return MPI.MAX
+
+
+def _bor():
+    from mpi4py import MPI
+
+    return MPI.BOR

@@ -135,8 +135,9 @@ def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:
         # The raw maximum within the smoothed peak's half width.
         near = np.flatnonzero(np.abs(np.log(f / f[k])) < 0.15)
         j = near[np.argmax(raw[near])]
-        if 0 < j < len(f) - 1:
-            out.append(site.peaks(f[j - 1:j + 2], raw[j - 1:j + 2], 1)[0])
+        refined = site.peaks(f[j - 1:j + 2], raw[j - 1:j + 2], 1) if 0 < j < len(f) - 1 \
+            else ()
+        out.append(refined[0] if len(refined) else f[j])
         if len(out) == count:
             break
     return np.array(out)

@@ -109,11 +109,14 @@ class Series:
 def exact_column(plan):
     """The exact one-dimensional reference of the scene (:class:`site.Column`) where it is
     one: one phase, horizontal shaking, no load, no mass-proportional damping (the
-    stiffness-proportional part is the column's viscosity); else None."""
+    stiffness-proportional part is the column's viscosity), and a response that dies out
+    (a compliant base or damping); else None."""
     sh = plan.shaking
     if plan.phases != 1 or sh.direction != "x" or plan.loading is not None or sh.a0 > 0 \
             or plan.motion.form[0] == "none":
         return None
+    if sh.base == "rigid" and sh.a1 == 0:
+        return None         # undamped on a rigid base it rings forever: no FFT answer
     soils = plan.ground.soils
     Vs = tuple(float(np.sqrt(s.E / (2 * (1 + s.nu)) / s.density)) for s in soils)
     rock = (sh.rock_speed, sh.rock_rho, 0.0) if sh.base == "compliant" else None

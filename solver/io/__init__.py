@@ -13,7 +13,8 @@ knows nothing of the analyses: they call it.
 - ``failure``: what a run that stops early writes;
 - ``memory``: the memory a model needs, checked before anything is allocated;
 - ``launch``: the Python the executables run under (one that imports PETSc);
-- ``records``: recorded base motions (a CSV of t and a, a PEER .AT2 file), read and checked.
+- ``records``: recorded base motions (a CSV of t and a, a PEER .AT2 file), read and checked;
+- ``checks``: the checks of the options' values (each a problem in words, or None).
 
 May import: references, model, common.
 

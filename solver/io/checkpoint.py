@@ -120,6 +120,14 @@ def _run_of(path):
     return run
 
 
+def given_at_start(path) -> tuple:
+    """The options the run of checkpoint ``path`` was given when it began (its ``run``'s
+    ``given``; () when it does not say): what a restart, whose options come from the
+    checkpoint, counts as given."""
+    run = _run_of(path) if path else None
+    return tuple(run.get("given", ())) if run else ()
+
+
 def read_options(origins, db=None):
     """The options of this command (:func:`options.read`); with -mpm_restart, the
     checkpoint's options in place of the defaults, and InputError for an option given

@@ -252,8 +252,8 @@ SPEC = [
     Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), checks.positive),
     Option("record_depths", "floats", (), "depths below the surface of the recorded "
            "histories (m); the surface and the base always", (DYNAMIC,), checks.all_nonnegative),
-    Option("record_dt", "float", 0.005, "time between recorded samples (s; the step's "
-           "multiple nearest it)", (DYNAMIC,), checks.positive),
+    Option("record_dt", "float", 0.005, "time between recorded samples (s; the time step "
+           "is a divisor of it)", (DYNAMIC,), checks.positive),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),

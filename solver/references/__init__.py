@@ -9,7 +9,9 @@ never builds on them (a reference the model were made of would check nothing).
 - ``static``: the undrained and final settlements by static solves;
 - ``site``: site response of a layered shear column on a rigid base or elastic rock: its
   exact transfer functions and surface histories;
-- ``spectra``: Fourier amplitudes, Konno-Ohmachi smoothing, pseudo-spectral acceleration.
+- ``spectra``: Fourier amplitudes, Konno-Ohmachi smoothing, pseudo-spectral acceleration;
+- ``waves``: plane compression waves of the v-w equations: the saturated column's fast and
+  slow speeds, the undrained speed, the decay by drag.
 
 May import: model, common.
 
