@@ -7,6 +7,8 @@
     .venv/bin/python scripts/benchmark --paper    # also time scripts/reproduce-paper
     .venv/bin/python scripts/benchmark --footing  # the implicit scheme's footing, 1e5 points
                                                   # (scripts/footing_benchmark.py)
+    .venv/bin/python scripts/benchmark --dynamic  # site response: 30 m, 1 x 300, 20 s, one
+                                                  # core (scripts/site_benchmark.py)
 
 Prints and writes benchmark.json, benchmark.txt and benchmark.png into
 output/studies/benchmark/ (``--publish``: docs/results/, the tracked copy
@@ -693,6 +695,11 @@ def main(argv=None) -> int:
         import footing_benchmark
 
         return footing_benchmark.main([a for a in argv if a != "--footing"])
+    if "--dynamic" in argv:          # site response (scripts/site-benchmark)
+        sys.path.insert(0, str(REPO / "scripts"))
+        import site_benchmark
+
+        return site_benchmark.main([a for a in argv if a != "--dynamic"])
     ap, args = arguments(argv)
     if args.worker:
         worker(json.loads(args.worker))

@@ -220,7 +220,8 @@ def _record(tmp_path, name, text):
 
 
 @pytest.mark.parametrize("case", ["unreadable", "backwards", "negative speed", "periodic load",
-                                  "two phases shaken", "deep record", "bad ricker"])
+                                  "two phases shaken", "deep record", "bad ricker",
+                                  "absorbing shaken", "load on held sides"])
 def test_bad_input_is_one_line(cli, tmp_path, case):
     """Bad input: one line naming the option, exit code 2, nothing written."""
     args, must = {
@@ -234,6 +235,9 @@ def test_bad_input_is_one_line(cli, tmp_path, case):
         "two phases shaken": (["-mpm_phases", "2", "-mpm_load", "1e3"], "-mpm_base_motion"),
         "deep record": (["-mpm_record_depths", "25"], "-mpm_record_depths"),
         "bad ricker": (["-mpm_base_motion", "ricker:5"], "-mpm_base_motion"),
+        "absorbing shaken": (["-mpm_bc_sides", "absorbing"], "-mpm_bc_sides absorbing"),
+        "load on held sides": (["-mpm_base_motion", "none", "-mpm_load", "1e3"],
+                               "-mpm_load"),
     }[case]
     out = tmp_path / "out"
     assert_input_error(cli(args, options_file="dynamic-uniform", out_dir=out), must, out)

@@ -42,7 +42,7 @@ from petsc4py import PETSc
 
 from ..common.errors import InputError
 from ..common.linalg import direct_solver
-from ..model import scene
+from ..model import scene, shapes
 from ..model.scene import Body, Loading, top_forces
 
 SAFETY = 0.9
@@ -71,13 +71,13 @@ class Shaking:
         if self.a0 < 0 or self.a1 < 0:
             raise InputError("Rayleigh coefficients must be >= 0")
 
-    def supports(self, periodic: bool = False) -> tuple:
+    def supports(self, sides: str = "rollers") -> tuple:
         """The sides' fixed components: the other direction held everywhere on the sides
-        (free where they are tied, ``periodic``), the base fixed in both (rigid) or in the
-        other direction only (compliant)."""
+        (rollers; free where they are tied, periodic, or absorbing), the base fixed in both
+        (rigid) or in the other direction only (compliant)."""
         other = "y" if self.direction == "x" else "x"
         bottom = "xy" if self.base == "rigid" else other
-        side = "none" if periodic else other
+        side = other if sides == "rollers" else "none"
         return (("left", side), ("right", side), ("bottom", bottom), ("top", "none"))
 
 
@@ -90,15 +90,17 @@ def rayleigh(xi: float, f1: float, f2: float) -> tuple:
 class ShakenBody:
     """The body of ``body`` (its grid, points, cells; its supports replaced by
     :meth:`Shaking.supports`) made of ``soil`` on ``comm``, shaken as ``shaking`` says;
-    ``periodic`` ties each right-side node to the left-side node of its row (the body moves
-    as a column of any width), ``load`` (Pa) presses on the top from t = 0 (``loading``'s
-    extent). :meth:`run` steps it, or :meth:`start` and :meth:`step` one step at a time.
+    ``sides``: rollers, periodic (each right-side node tied to the left-side node of its
+    row: the body moves as a column of any width) or absorbing (Lysmer dashpots, rho Vp
+    normal and rho Vs tangential, for waves leaving a body whose far field is at rest);
+    ``loading`` presses on the top from t = 0. :meth:`run` steps it, or :meth:`start` and :meth:`step` one step at a time.
     The caller destroys it."""
 
-    def __init__(self, comm, body: Body, soil, shaking: Shaking, periodic: bool = False,
+    def __init__(self, comm, body: Body, soil, shaking: Shaking, sides: str = "rollers",
                  loading: Loading | None = None):
         self.shaking = shaking
-        body = dataclasses.replace(body, bcs=shaking.supports(periodic))
+        periodic = sides == "periodic"
+        body = dataclasses.replace(body, bcs=shaking.supports(sides))
         self.body = body
         self.grid, self.points, K, M, self.free = scene.build(comm, body, soil)
         m = self._lumped(M, K)
@@ -114,6 +116,9 @@ class ShakenBody:
         if shaking.base == "compliant":
             share = top_forces(self.grid, Loading(load=1.0))   # int N ds of each base node
             c[base] = shaking.rock_rho * shaking.rock_speed * share[i[base]]
+        if sides == "absorbing":
+            side = (i == 0) | (i == nx - 1)
+            c[side] += side_dashpots(self.grid, soil)[self.row[side], self.comp[side]]
         f = np.zeros(len(idx))
         if loading is not None and loading.load > 0:
             top = (self.comp == 1) & (self.row == self.grid.nodes[1] - 1)
@@ -256,6 +261,26 @@ class ShakenBody:
         scene.destroy(self.solver, self.u, self.v, getattr(self, "r", None),
                       getattr(self, "Kv", None), self.T, self.K, self.free, self.points,
                       self.grid)
+
+
+def side_dashpots(grid, soil) -> np.ndarray:
+    """(node rows, 2): the Lysmer dashpots (N s/m per m depth) of a side node of each row,
+    rho Vp on x (normal) and rho Vs on y (tangential), each the integral of the node's 1D
+    shape function along the side with its cells' layer's impedance."""
+    s, w = shapes.gauss_1d(3)
+    order, h, cells = grid.order, grid.h[1], grid.cells[1]
+    edge = (w[:, None] * shapes.lagrange1d(order, s)[0]).sum(axis=0) * h / 2
+    layer_of = getattr(soil, "layer_of", lambda y: np.zeros(len(y), dtype=int))
+    layers = layer_of((np.arange(cells) + 0.5) * h)
+    out = np.zeros((grid.nodes[1], 2))
+    for cy in range(cells):                  # the set-up only: once per run
+        m = soil.soils[int(layers[cy])]
+        Vp = math.sqrt(m.constrained_modulus / m.density)
+        Vs = math.sqrt(m.E / (2 * (1 + m.nu)) / m.density)
+        rows = slice(order * cy, order * cy + order + 1)
+        out[rows, 0] += m.density * Vp * edge
+        out[rows, 1] += m.density * Vs * edge
+    return out
 
 
 def _ties(K, idx, nx: int):

@@ -42,14 +42,14 @@ MAX_STEPS = 5e7
 @dataclasses.dataclass
 class DynamicPlan:
     """What a dynamic run does, resolved from the options: the body, ground and shaking,
-    periodic sides, the load (None: none), the motion, the phases, the end (s), the
+    the sides (rollers, periodic, absorbing), the load (None: none), the motion, the phases, the end (s), the
     recorded depths (m), the natural frequencies (Hz; Jacobi's and the layered rod's),
     the Rayleigh damping (xi, F1, F2 or None), the outputs and the run's provenance."""
 
     body: Body
     ground: Ground
     shaking: Shaking
-    periodic: bool
+    sides: str
     loading: Loading | None
     motion: Motion
     phases: int
@@ -79,7 +79,7 @@ class Request:
     direction: str
     base: str
     rock: tuple                # (rho (kg/m3), Vs, Vp (m/s))
-    periodic: bool
+    sides: str                 # rollers | periodic | absorbing
     rayleigh: tuple
     t_end: float
     record_dt: float
@@ -107,7 +107,7 @@ class Request:
                    motion=p.base_motion, scale=p.base_motion_scale,
                    direction="y" if p.phases == 2 else p.base_direction,
                    base="rigid" if p.phases == 2 else p.base,
-                   rock=(p.rock_rho, p.rock_Vs, p.rock_Vp), periodic=p.bc_sides == "periodic",
+                   rock=(p.rock_rho, p.rock_Vs, p.rock_Vp), sides=p.bc_sides,
                    rayleigh=tuple(p.rayleigh), t_end=p.t_end, record_dt=p.record_dt,
                    depths=tuple(p.record_depths), loading=loading, water=p.rho_l > 0,
                    jacobi=(p.jacobi_tol, p.jacobi_max_sweeps),
@@ -134,7 +134,7 @@ def validate(req: Request) -> None:
         raise InputError("-mpm_base_motion none: nothing moves the body (give a base "
                          "motion or -mpm_load)")
     if req.loading is not None and req.phases == 1 and req.direction == "x" \
-            and not req.periodic:
+            and req.sides == "rollers":
         raise InputError("-mpm_load: with -mpm_base_direction x the sides are held "
                          "vertically and carry it; give -mpm_base_direction y, or "
                          "-mpm_bc_sides periodic")
@@ -142,7 +142,11 @@ def validate(req: Request) -> None:
     if extent and not 0 <= extent[0] < extent[1] <= W:
         raise InputError(f"-mpm_load_extent {extent[0]:g},{extent[1]:g}: outside the top "
                          f"(0 <= x0 < x1 <= {W:g} m)")
-    if req.periodic and extent and req.loading.partial(W):
+    if req.sides == "absorbing" and (moving or req.phases == 2):
+        raise InputError("-mpm_bc_sides absorbing: dashpots for waves leaving a body whose "
+                         "far field is at rest (one phase, a sudden load, no base motion); "
+                         "a shaken body takes periodic sides")
+    if req.sides == "periodic" and extent and req.loading.partial(W):
         raise InputError(f"-mpm_bc_sides periodic: a load on part of the top "
                          f"(-mpm_load_extent {extent[0]:g},{extent[1]:g}) is not the same on "
                          "every column; use rollers")
@@ -179,7 +183,7 @@ def plan_of(req: Request, comm) -> DynamicPlan:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
     rho, Vs, Vp = req.rock
     shaking = Shaking(req.direction, req.base, rho, Vs if req.direction == "x" else Vp)
-    body = dataclasses.replace(req.body, bcs=shaking.supports(req.periodic))
+    body = dataclasses.replace(req.body, bcs=shaking.supports(req.sides))
     if req.loading is not None:
         req.loading.check_extent(body)
     eig, solver = np.zeros(0), "none"
@@ -202,7 +206,7 @@ def plan_of(req: Request, comm) -> DynamicPlan:
         damping = (xi, f1, f2)
         shaking = dataclasses.replace(shaking, **dict(zip(("a0", "a1"), rayleigh(xi, f1,
                                                                                    f2))))
-    return DynamicPlan(body=body, ground=req.ground, shaking=shaking, periodic=req.periodic,
+    return DynamicPlan(body=body, ground=req.ground, shaking=shaking, sides=req.sides,
                        loading=req.loading, motion=motion, phases=req.phases,
                        t_end=req.t_end, record_dt=req.record_dt, depths=req.depths,
                        eigen_hz=eig, eigen_solver=solver, analytic_hz=analytic,
@@ -248,7 +252,7 @@ class NodalModel:
     def __init__(self, comm, plan: DynamicPlan):
         signals.stage("set-up: the body")
         self.plan = plan
-        self.body = ShakenBody(comm, plan.body, plan.ground, plan.shaking, plan.periodic,
+        self.body = ShakenBody(comm, plan.body, plan.ground, plan.shaking, plan.sides,
                                plan.loading)
         b = self.body
         every = max(1, math.ceil(plan.record_dt / b.dt - 1e-9))

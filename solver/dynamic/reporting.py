@@ -29,7 +29,7 @@ def print_plan(plan, model, nsteps: int, comm) -> None:
         f"{motion[0]} " + ",".join(f"{v:g}" for v in motion[1:]))
     PETSc.Sys.Print(
         f"Dynamic analysis: {what}, {sh.direction} motion, {base}"
-        f"{', periodic sides' if plan.periodic else ''}; base motion {words}"
+        f"{'' if plan.sides == 'rollers' else f', {plan.sides} sides'}; base motion {words}"
         f" x {plan.motion.scale:g}"
         f"{'' if plan.loading is None else f'; load {plan.loading.load:g} Pa at t = 0'}"
         + (f"\nNatural frequencies of the column on a fixed base ({plan.eigen_solver}): "

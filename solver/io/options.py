@@ -243,9 +243,10 @@ SPEC = [
            (DYNAMIC,), checks.positive),
     Option("rock_rho", "float", 2200.0, "density of the rock (kg/m3)", (DYNAMIC,), checks.positive),
     Option("bc_sides", "str", "rollers", "the sides: rollers (held across the shaking "
-           "direction) or periodic (left and right nodes tied: a body of any width moves as "
-           "a column; not with a load on part of the top)", (DYNAMIC,),
-           choices=("rollers", "periodic")),
+           "direction), periodic (left and right nodes tied: a body of any width moves as "
+           "a column; not with a load on part of the top) or absorbing (Lysmer dashpots "
+           "rho Vp, rho Vs: waves from a sudden load leave; not with a base motion)",
+           (DYNAMIC,), choices=("rollers", "periodic", "absorbing")),
     Option("rayleigh", "floats", (), "Rayleigh damping XI[,F1,F2]: ratio XI at F1 and F2 "
            "(Hz; default f1 and 5 f1 of the Jacobi eigen analysis of the same column); "
            "none when not given", (DYNAMIC,), checks.rayleigh),
