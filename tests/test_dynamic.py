@@ -39,13 +39,16 @@ def histories(folder) -> dict:
 
 def assert_same(a, b, tol, what):
     """Histories ``b`` are ``a`` within ``tol`` of the largest value of each quantity (a, v,
-    u, p) over every depth and direction (a component that does not move is round-off)."""
+    u, p) over every depth and direction (a component that does not move is round-off),
+    beyond the last of the 11 digits histories.csv prints (a difference below it can turn
+    that digit)."""
     for depth, cols in a.items():
         for key, values in cols.items():
             family = [k for k in cols if k[0] == key[0]]
             scale = max(np.max(np.abs(c[k])) for c in a.values() for k in family)
             assert len(b[depth][key]) == len(values), (what, depth, key)
-            assert np.max(np.abs(b[depth][key] - values)) <= tol * max(scale, 1e-300), \
+            printed = 1e-10 * np.abs(values)
+            assert np.all(np.abs(b[depth][key] - values) <= tol * scale + printed), \
                 (what, depth, key)
 
 
@@ -241,3 +244,40 @@ def test_bad_input_is_one_line(cli, tmp_path, case):
     }[case]
     out = tmp_path / "out"
     assert_input_error(cli(args, options_file="dynamic-uniform", out_dir=out), must, out)
+
+
+def test_sigterm_checkpoints_and_a_restart_on_two_ranks_continues(cli, tmp_path):
+    """SIGTERM in the middle of the three-layer record: one line, exit code 4, the summary
+    (``interrupted``) and a checkpoint; the restart on two ranks ends where the
+    uninterrupted run does (within 1e-10 of each quantity's peak: the summation order
+    differs across ranks)."""
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from conftest import REPO, clean_env
+
+    args = QUIET + ["-mpm_t_end", "6", "-mpm_cells", "1,150", "-mpm_checkpoint_every", "500"]
+    out = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "solver", "-options_file",
+           str(REPO / "cases" / "dynamic-layers.opts"), *args, "-mpm_output", str(out)]
+    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env=clean_env())
+    deadline = time.time() + 120
+    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 4, stderr
+    line = stderr.strip()
+    assert "\n" not in line and "SIGTERM" in line and "-mpm_restart" in line
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["completed"] is False
+    assert 0 < summary["step"] < summary["steps"]
+    full = tmp_path / "full"
+    check_ok(cli(args, options_file="dynamic-layers", out_dir=full))
+    check_ok(cli(["-mpm_restart", out / "checkpoint.npz"], ranks=2, out_dir=out,
+                 process=True))
+    assert_same(histories(full), histories(out), 1e-10, "restart on two ranks")

@@ -411,7 +411,7 @@ def _run(plan, model, restart, comm, t_wall, recorded) -> int:
                     last_print = time.perf_counter()
                     PETSc.Sys.Print(reporting.progress_line(rec, k, nsteps, t, t0, first),
                                     comm=comm)
-        except Exception as exc:     # noqa: BLE001  (written down, then raised on)
+        except (Exception, Interrupted) as exc:   # noqa: BLE001  (written, then raised on)
             known = isinstance(exc, (NumericalError, Interrupted))
             summary.update(completed=False, step=k, wall_seconds=time.perf_counter() - t_wall,
                            error=entry(str(exc) if known else describe(exc),
