@@ -110,6 +110,25 @@ def run_command(cmd, timeout=180, cwd=REPO, env=None):
         return 124, out, err + f"\n[test harness: killed after {timeout} s timeout]\n"
 
 
+def stopped_at_checkpoint(args, checkpoint, timeout=120):
+    """Run ``python -m solver args`` in a process of its own (the signal goes to it, not to
+    pytest; clean_env: without it the child inherits this process's MPI identity, PMIX_*,
+    OMPI_MCA_ess), send it SIGTERM once ``checkpoint`` exists, and check its one error line
+    (SIGTERM, the restart command) and exit code 4. Returns its stderr."""
+    proc = subprocess.Popen([PYTHON, "-m", "solver", *map(str, args)], cwd=REPO,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=clean_env())
+    deadline = time.time() + timeout
+    while not Path(checkpoint).exists() and time.time() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=timeout)
+    assert proc.returncode == 4, stderr
+    line = stderr.strip()
+    assert "\n" not in line and "SIGTERM" in line and "-mpm_restart" in line
+    return stderr
+
+
 def run_cli(args, out_dir, ranks: int = 1, timeout: float = 180, options_file=None,
             process: bool = False):
     """Run the solver's command line; returns :class:`CliResult` (a 4-tuple

@@ -4,14 +4,10 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
-from conftest import REPO, check_ok, clean_env
+from conftest import REPO, check_ok, stopped_at_checkpoint
 
 SCENE = ["-mpm_progress", "0", "-mpm_figures", "0"]
 
@@ -51,21 +47,9 @@ def test_restart_on_other_rank_count_matches_uninterrupted(cli, tmp_path, first,
 def test_sigterm_checkpoints_and_the_restart_matches(cli, tmp_path):
     end = ["-mpm_Tv_end", "0.3", "-mpm_Tv_report", "0.02,0.3"]
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "solver", "-options_file",
-           str(REPO / "cases" / "consolidation-m1-q4.opts"), *SCENE, *end,
-           "-mpm_checkpoint_every", "1000", "-mpm_output", str(out)]
-    # A process of its own: the signal goes to it, not to pytest. clean_env: without it the
-    # child inherits the MPI identity of this process (PMIX_*, OMPI_MCA_ess).
-    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=clean_env())
-    deadline = time.time() + 120
-    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGTERM)
-    stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 4, stderr
-    line = stderr.strip()
-    assert "\n" not in line and "SIGTERM" in line and "-mpm_restart" in line
+    stopped_at_checkpoint(["-options_file", REPO / "cases" / "consolidation-m1-q4.opts",
+                           *SCENE, *end, "-mpm_checkpoint_every", "1000", "-mpm_output", out],
+                          out / "checkpoint.npz")
     import json
 
     with open(out / "summary.json") as fh:

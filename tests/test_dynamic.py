@@ -252,27 +252,13 @@ def test_sigterm_checkpoints_and_a_restart_on_two_ranks_continues(cli, tmp_path)
     uninterrupted run does (within 1e-10 of each quantity's peak: the summation order
     differs across ranks)."""
     import json
-    import signal
-    import subprocess
-    import sys
-    import time
 
-    from conftest import REPO, clean_env
+    from conftest import REPO, stopped_at_checkpoint
 
     args = QUIET + ["-mpm_t_end", "6", "-mpm_cells", "1,150", "-mpm_checkpoint_every", "500"]
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "solver", "-options_file",
-           str(REPO / "cases" / "dynamic-layers.opts"), *args, "-mpm_output", str(out)]
-    proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, env=clean_env())
-    deadline = time.time() + 120
-    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGTERM)
-    _, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 4, stderr
-    line = stderr.strip()
-    assert "\n" not in line and "SIGTERM" in line and "-mpm_restart" in line
+    stopped_at_checkpoint(["-options_file", REPO / "cases" / "dynamic-layers.opts", *args,
+                           "-mpm_output", out], out / "checkpoint.npz")
     summary = json.loads((out / "summary.json").read_text())
     assert summary["interrupted"] is True and summary["completed"] is False
     assert 0 < summary["step"] < summary["steps"]
