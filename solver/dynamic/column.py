@@ -129,7 +129,7 @@ class ShakenBody:
             K.destroy()
         self.m, self.c, self.f = (self._reduce(a) for a in (m, c, f))
         self.along = self._reduce(self.along_full.astype(float)) > 0
-        self.dt = self._stable_step()
+        self.dt = self.dt_stable = self._stable_step()
         self.solver = None
         self.u = self.v = None
 
@@ -172,6 +172,7 @@ class ShakenBody:
         rowsum = np.add.reduceat(np.abs(av), ai[:-1]) if len(av) else np.zeros(0)
         local = float(np.max(rowsum / self.m)) if len(rowsum) else 0.0
         w = math.sqrt(self.K.getComm().tompi4py().allreduce(local, op=_max()))
+        self.w_max = w                 # rad/s, the Gershgorin bound of the fastest mode
         # The stiffness-proportional damping is taken implicitly (:meth:`step`): only the
         # mass-proportional part lowers the limit.
         xi = self.shaking.a0 / (2 * w)

@@ -59,9 +59,12 @@ def progress_line(rec, k: int, nsteps: int, t: float, t0: float, first: int) -> 
 
 
 def summary_head(plan, model, nsteps: int, recorded: dict) -> dict:
-    return {"analysis": "dynamic", "run_id": plan.run["id"], "completed": False,
+    head = {"analysis": "dynamic", "run_id": plan.run["id"], "completed": False,
             "phases": plan.phases, "dt": model.dt, "steps": nsteps, "t_end": plan.t_end,
             "provenance": recorded}
+    if not model.water:       # the bound the step comes from (a divisor of -mpm_record_dt)
+        head.update(w_max=model.body.w_max, dt_stable=model.body.dt_stable)
+    return head
 
 
 class Series:
