@@ -105,8 +105,9 @@ class Request:
             else None
         return cls(body=Body.from_options(p), ground=Ground.from_options(p), phases=p.phases,
                    motion=p.base_motion, scale=p.base_motion_scale,
-                   direction="y" if p.phases == 2 else p.base_direction,
-                   base="rigid" if p.phases == 2 else p.base,
+                   # Two phases under a load alone move vertically.
+                   direction="y" if p.phases == 2 and parse(p.base_motion)[0] == "none"
+                   else p.base_direction, base=p.base,
                    rock=(p.rock_rho, p.rock_Vs, p.rock_Vp), sides=p.bc_sides,
                    rayleigh=tuple(p.rayleigh), t_end=p.t_end, record_dt=p.record_dt,
                    depths=tuple(p.record_depths), loading=loading, water=p.rho_l > 0,
@@ -123,18 +124,17 @@ def validate(req: Request) -> None:
     """InputError for options that contradict each other."""
     W, H = req.body.size
     moving = parse(req.motion)[0] != "none"
-    if req.phases == 2 and moving:
-        raise InputError(f"-mpm_base_motion {req.motion}: two phases (-mpm_phases 2) "
-                         "take a sudden load only; shake the body with -mpm_phases 1")
+    if req.phases == 2 and moving and req.base != "rigid":
+        raise InputError(f"-mpm_base {req.base}: two phases (-mpm_phases 2) are shaken on "
+                         "a rigid base (-mpm_base rigid; the motion is the base's own)")
+    if req.phases == 2 and req.sides != "rollers":
+        raise InputError(f"-mpm_bc_sides {req.sides}: two phases take rollers")
     if req.phases == 2 and not req.water:
         raise InputError("-mpm_rho_l 0: two phases need pore water (rho_l > 0)")
-    if req.phases == 2 and req.loading is None:
-        raise InputError("-mpm_phases 2: give the sudden load -mpm_load (Pa)")
     if not moving and req.loading is None:
         raise InputError("-mpm_base_motion none: nothing moves the body (give a base "
                          "motion or -mpm_load)")
-    if req.loading is not None and req.phases == 1 and req.direction == "x" \
-            and req.sides == "rollers":
+    if req.loading is not None and req.direction == "x" and req.sides == "rollers":
         raise InputError("-mpm_load: with -mpm_base_direction x the sides are held "
                          "vertically and carry it; give -mpm_base_direction y, or "
                          "-mpm_bc_sides periodic")
@@ -142,7 +142,7 @@ def validate(req: Request) -> None:
     if extent and not 0 <= extent[0] < extent[1] <= W:
         raise InputError(f"-mpm_load_extent {extent[0]:g},{extent[1]:g}: outside the top "
                          f"(0 <= x0 < x1 <= {W:g} m)")
-    if req.sides == "absorbing" and (moving or req.phases == 2):
+    if req.sides == "absorbing" and moving:
         raise InputError("-mpm_bc_sides absorbing: dashpots for waves leaving a body whose "
                          "far field is at rest (one phase, a sudden load, no base motion); "
                          "a shaken body takes periodic sides")
@@ -182,7 +182,8 @@ def plan_of(req: Request, comm) -> DynamicPlan:
     for note in notes:
         PETSc.Sys.Print(f"Note: {note}", comm=comm)
     rho, Vs, Vp = req.rock
-    shaking = Shaking(req.direction, req.base, rho, Vs if req.direction == "x" else Vp)
+    shaking = Shaking(req.direction, "rigid" if req.phases == 2 else req.base, rho,
+                      Vs if req.direction == "x" else Vp)
     body = dataclasses.replace(req.body, bcs=shaking.supports(req.sides))
     if req.loading is not None:
         req.loading.check_extent(body)
@@ -195,8 +196,9 @@ def plan_of(req: Request, comm) -> DynamicPlan:
                              "eigen_", EIGEN_DOFS)
         modulus = [s.E / (2 * (1 + s.nu)) if req.direction == "x" else s.constrained_modulus
                    for s in soils]
-    else:         # the waves of a saturated column are undrained
-        modulus = [s.constrained_modulus + s.K_l / s.porosity for s in soils]
+    else:         # the waves of a saturated column: undrained, the phases locked by drag
+        modulus = [s.E / (2 * (1 + s.nu)) if req.direction == "x" else
+                   s.constrained_modulus + s.K_l / s.porosity for s in soils]
     analytic = layered.rod_frequencies(req.ground.thickness, modulus,
                                        [s.density for s in soils], 3)
     damping = None

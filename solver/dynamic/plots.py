@@ -65,10 +65,11 @@ def _spectra(plt, plan, spec):
     ax1.plot(f, spec["smoothed"], lw=1.4, color="tab:blue", label="Konno-Ohmachi (b = 40)")
     if "exact_transfer" in spec:
         ax1.plot(f, spec["exact_transfer"], lw=1.0, ls="--", color="k", label="exact")
-    for i, fe in enumerate(plan.eigen_hz):
-        ax1.axvline(fe, color="tab:red", lw=0.8, ls=":",
-                    label="natural frequencies (Jacobi)" if i == 0 else None)
-    top = 2.2 * max(plan.eigen_hz[-1], spec["peaks"][-1] if len(spec["peaks"]) else 0)
+    marks, label = (plan.eigen_hz, "natural frequencies (Jacobi)") if len(plan.eigen_hz) \
+        else (plan.analytic_hz, "natural frequencies (layered rod, undrained)")
+    for i, fe in enumerate(marks):
+        ax1.axvline(fe, color="tab:red", lw=0.8, ls=":", label=label if i == 0 else None)
+    top = 2.2 * max(marks[-1], spec["peaks"][-1] if len(spec["peaks"]) else 0)
     ax1.set_xlim(0, min(f[-1], top))
     ax1.set_ylim(0, 1.15 * np.max(spec["smoothed"][f <= top]))
     ax1.set_xlabel("f (Hz)")

@@ -19,7 +19,7 @@ from . import histories, plots
 
 def print_plan(plan, model, nsteps: int, comm) -> None:
     sh = plan.shaking
-    what = ("two phases (the v-w step), a sudden load" if plan.phases == 2 else
+    what = ("two phases (the v-w step)" if plan.phases == 2 else
             "one phase (the solid with the mixture's density)")
     base = (f"compliant base (rock: {sh.rock_speed:g} m/s, {sh.rock_rho:g} kg/m3)"
             if sh.base == "compliant" else "rigid base")
@@ -34,8 +34,8 @@ def print_plan(plan, model, nsteps: int, comm) -> None:
         f"{'' if plan.loading is None else f'; load {plan.loading.load:g} Pa at t = 0'}"
         + (f"\nNatural frequencies of the column on a fixed base ({plan.eigen_solver}): "
            + ", ".join(f"{f:.4g}" for f in plan.eigen_hz) + " Hz; the layered rod's: "
-           if len(plan.eigen_hz) else "\nNatural frequencies of the undrained column "
-           "(the layered rod's): ")
+           if len(plan.eigen_hz) else "\nNatural frequencies of the saturated column, its "
+           "phases locked by drag (the layered rod's): ")
         + ", ".join(f"{f:.4g}" for f in plan.analytic_hz) + " Hz", comm=comm)
     if plan.damping is not None:
         xi, f1, f2 = plan.damping
@@ -185,9 +185,10 @@ def _print_results(block, comm) -> None:
     if "pga_input" in block:
         lines.append(f"Peak acceleration: input {block['pga_input']:.4g} m/s2, surface "
                      f"{block['pga_surface']:.4g} m/s2")
+        jacobi = ("natural frequencies (Jacobi): " + ", ".join(
+            f"{f:.4g}" for f in block["eigen_hz"]) + " Hz; ") if block["eigen_hz"] else ""
         lines.append("Transfer function peaks: " + ", ".join(
-            f"{f:.4g}" for f in block["peaks_hz"]) + " Hz; natural frequencies (Jacobi): "
-            + ", ".join(f"{f:.4g}" for f in block["eigen_hz"]) + " Hz; layered rod: "
+            f"{f:.4g}" for f in block["peaks_hz"]) + " Hz; " + jacobi + "layered rod: "
             + ", ".join(f"{f:.4g}" for f in block["analytic_hz"]) + " Hz")
     if "exact_error_pct_of_peak" in block:
         lines.append(f"Surface acceleration against the exact response of the column: "

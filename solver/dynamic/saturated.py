@@ -52,7 +52,12 @@ class SaturatedColumn:
                                      flip="auto")
         self.grid, self.points = scene.two_phase_body(comm, plan.body, soil,
                                                       point_fields(self.scheme, layered))
-        self.loading = Loading(load=plan.loading.load, extent=plan.loading.extent)
+        self.loading = plan.loading or Loading(load=0.0)
+        # The pressure a blow-up is measured against: the load, or the base motion's
+        # inertia over the column, rho a_max H.
+        a_max = float(np.max(np.abs(plan.motion.acceleration(
+            np.linspace(0.0, plan.t_end, 100001)))))
+        self.scale = max(self.loading.load, soil.density * a_max * plan.body.height, 1.0)
         self.model = TwoPhase(self.grid, self.points, soil, plan.body, self.loading,
                               self.scheme)
         signals.stage("set-up: the critical time steps")
@@ -76,10 +81,14 @@ class SaturatedColumn:
 
     def step(self, t: float) -> None:
         self.v_before = self.points.get("vs").copy()
-        self.model.step(self.dt, 1.0, 0.0, self.scheme.flip)
+        self.t = t
+        self.a_b = float(self.plan.motion.acceleration(t))
+        base = (self.a_b, 0.0) if self.plan.shaking.direction == "x" else (0.0, self.a_b)
+        self.model.step(self.dt, 1.0, 0.0, self.scheme.flip, base)
 
     def means(self, t: float) -> np.ndarray:
-        """The row means (rows x COLUMNS) at t + dt (the state after the step taken)."""
+        """The row means (rows x COLUMNS) at t + dt (the state after the step taken):
+        accelerations and velocities absolute (the step runs in the frame of the base)."""
         vs, x, x0, p = self.points.get("vs", "x", "x0", "p")
         a = (vs - self.v_before) / self.dt
         n = len(self.heights)
@@ -87,10 +96,14 @@ class SaturatedColumn:
         for col, values in enumerate((a[:, 0], vs[:, 0], x[:, 0] - x0[:, 0],
                                       a[:, 1], vs[:, 1], x[:, 1] - x0[:, 1], p)):
             sums[:, col] = np.bincount(self.row, weights=values, minlength=n)
-        return self.mpi.allreduce(sums) / self.count[:, None]
+        out = self.mpi.allreduce(sums) / self.count[:, None]
+        comp = 0 if self.plan.shaking.direction == "x" else 3
+        out[:, comp] += self.a_b
+        out[:, comp + 1] += float(self.plan.motion.velocity(t + self.dt))
+        return out
 
     def check(self, step: int, t: float) -> None:
-        self.model.check(step, t, max(self.plan.loading.load, 1.0))
+        self.model.check(step, t, self.scale)
 
     def state(self) -> dict:
         return {}                     # the points hold it all
@@ -101,7 +114,10 @@ class SaturatedColumn:
         self._rows()
 
     def references(self, rec) -> dict:
-        """The run beside the saturated column's references (see the module's docstring)."""
+        """The run beside the saturated column's references (see the module's docstring):
+        under a sudden load alone."""
+        if self.plan.loading is None or self.plan.motion.form[0] != "none":
+            return {}
         s, q, H = self.soil, self.plan.loading.load, self.plan.body.height
         E_c = s.constrained_modulus
         c_u = waves.undrained_speed(E_c, s.K_l, s.porosity, s.rho_s, s.rho_l)

@@ -98,7 +98,9 @@ PNODAL, PCORNER = 1, 2   # C[IPROJ] of the nodal and the corner projection
  ) = range(16)
 RD = 16                   # the plane-strain elasticity matrix D (Pa), 3 x 3 row-major
 RBOX = RD + 9             # migration box per direction: partitioned (1/0), h, lo, hi
-NR = RBOX + 8
+RBASE = RBOX + 8          # the base's acceleration (m/s2, x and y) in the frame of a
+#                           rigid base (dynamic analysis): every mass feels -M a_b
+NR = RBASE + 2
 # Layered material: after the NR reals, one row of NL per layer, indexed by the point's
 # ``layer`` field. Masses and drag then enter the nodes as NLS more nodal sums (the last
 # fields: sum w V c_s, sum w_l V c_l, sum w_l V c_q, sum w_l V c_q / n), since their ratio
@@ -462,6 +464,12 @@ def nodal_update(C, dt, load_factor, damping):
                 # The water outside a drained side at its hydrostatic pressure.
                 fm += B[b + 6 + d]
                 fl += B[b + 8 + d]
+            ab = R[RBASE + d]
+            if ab != 0.0:
+                # In the frame of a moving rigid base both phases feel -a_b: the mixture's
+                # -(M_s + M_l) a_b, the liquid's -M~_l a_b (the drag sees no change).
+                fm -= (Ms + Ml) * ab
+                fl -= Mt * ab
             if damping != 0.0:
                 # Local (Cundall) damping of the mixture's unbalanced force, against the
                 # mixture momentum, whose sign is that of M_s v_s + M_l v_l (per unit S:

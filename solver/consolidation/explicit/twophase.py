@@ -397,9 +397,14 @@ class TwoPhase:
         return self._O.reshape(self.ng, self.ngf).T
 
     # -- one step --------------------------------------------------------------------------
-    def step(self, dt: float, load_factor: float, damping: float, flip: float):
+    def step(self, dt: float, load_factor: float, damping: float, flip: float,
+             base=None):
         """Advance the points by one explicit step of dt (s); load_factor scales the surface
-        load, damping is the local damping coefficient, flip the FLIP fraction."""
+        load, damping is the local damping coefficient, flip the FLIP fraction; ``base``
+        (m/s2, x and y), the acceleration of a rigid base in whose frame the step runs (the
+        dynamic analysis; None: at rest)."""
+        if base is not None:
+            self._R[kernels.RBASE:kernels.RBASE + 2] = base
         if self._gen != self.points.generation:
             self._prepare()
         # Floats: a kernel called with an int would compile a variant inside the step.
