@@ -144,7 +144,7 @@ def validate(req: Request) -> None:
                          f"(0 <= x0 < x1 <= {W:g} m)")
     if req.sides == "absorbing" and moving:
         raise InputError("-mpm_bc_sides absorbing: dashpots for waves leaving a body whose "
-                         "far field is at rest (one phase, a sudden load, no base motion); "
+                         "far field is at rest (a sudden load, no base motion); "
                          "a shaken body takes periodic sides")
     if req.sides == "periodic" and extent and req.loading.partial(W):
         raise InputError(f"-mpm_bc_sides periodic: a load on part of the top "
