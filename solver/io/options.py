@@ -225,7 +225,8 @@ SPEC = [
     # -- dynamics: the body shaken at its base (or loaded suddenly) -----------------------
     Option("phases", "int", 1, "1: the solid alone with the mixture's density (dry or total "
            "stress; a dry soil sets -mpm_rho_l 0); 2: saturated, the v-w step (pore pressure; "
-           "shaken on a rigid base, or loaded)", (DYNAMIC,), lambda v: None if v in (1, 2) else "choose 1 or 2"),
+           "shaken on a rigid base, or loaded)", (DYNAMIC,),
+           lambda v: None if v in (1, 2) else "choose 1 or 2"),
     Option("base_motion", "str", "none", "the input motion: none, ricker:F0,AMP (Hz, peak "
            "m/s2, centred at 1.5/F0 s), sine:F,AMP,CYCLES, or a record file: CSV t (s), a "
            "(m/s2), or a PEER .AT2 (g); interpolated onto the steps, zero after its end",
