@@ -93,7 +93,8 @@ class ShakenBody:
     ``sides``: rollers, periodic (each right-side node tied to the left-side node of its
     row: the body moves as a column of any width) or absorbing (Lysmer dashpots, rho Vp
     normal and rho Vs tangential, for waves leaving a body whose far field is at rest);
-    ``loading`` presses on the top from t = 0. :meth:`run` steps it, or :meth:`start` and :meth:`step` one step at a time.
+    ``loading`` presses on the top from t = 0. :meth:`run` steps it, or :meth:`start` and
+    :meth:`step` one step at a time.
     The caller destroys it."""
 
     def __init__(self, comm, body: Body, soil, shaking: Shaking, sides: str = "rollers",

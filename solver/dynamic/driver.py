@@ -42,9 +42,10 @@ MAX_STEPS = 5e7
 @dataclasses.dataclass
 class DynamicPlan:
     """What a dynamic run does, resolved from the options: the body, ground and shaking,
-    the sides (rollers, periodic, absorbing), the load (None: none), the motion, the phases, the end (s), the
-    recorded depths (m), the natural frequencies (Hz; Jacobi's and the layered rod's),
-    the Rayleigh damping (xi, F1, F2 or None), the outputs and the run's provenance."""
+    the sides (rollers, periodic, absorbing), the load (None: none), the motion, the
+    phases, the end (s), the recorded depths (m), the natural frequencies (Hz; Jacobi's and
+    the layered rod's), the Rayleigh damping (xi, F1, F2 or None), the outputs and the
+    run's provenance."""
 
     body: Body
     ground: Ground

@@ -126,8 +126,8 @@ def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:
     """The frequencies (Hz) of the first ``count`` resonances: the maxima of the raw
     transfer function ``raw`` (refined by a parabola, :func:`site.peaks`) at the maxima of
     the smoothed one ``smooth`` that stand PROMINENCE above the lower of the minima beside
-    them, the higher of the two (the raw ratio of two spectra has spurious maxima; the smoothed one is biased by
-    its window)."""
+    them, the higher of the two (the raw ratio of two spectra has spurious maxima; the
+    smoothed one is biased by its window)."""
     out = []
     top = np.flatnonzero((smooth[1:-1] > smooth[:-2]) & (smooth[1:-1] >= smooth[2:])) + 1
     for k in top:
