@@ -5,8 +5,8 @@ suddenly, stepped in time.
   frequencies, Rayleigh damping), the time loop with its records and checkpoints;
 - ``column``: the one-phase shaken body (rigid or compliant base, Rayleigh damping,
   periodic sides, a sudden load), stepped by central differences;
-- ``saturated``: two phases under a sudden load: the explicit v-w step without dampers,
-  with the saturated column's references;
+- ``saturated``: two phases under a sudden load or shaken on a rigid base: the explicit
+  v-w step without dampers, with the saturated column's references;
 - ``histories``: what a run records (row means at depths, peaks with depth) and the
   histories, peaks and spectra it writes;
 - ``reporting``: the lines printed, the exact response of a one-dimensional scene, the

@@ -1,11 +1,14 @@
-"""Two phases in time: the saturated body under a sudden load, stepped by the explicit v-w
-step of the consolidation analysis (:class:`TwoPhase`) without its dampers (no local, bulk
-or fast-part damping, no mass scaling: the waves are the answer here), the drag implicit.
+"""Two phases in time: the saturated body under a sudden load and/or shaken on a rigid base,
+stepped by the explicit v-w step of the consolidation analysis (:class:`TwoPhase`) without
+its dampers (no local, bulk or fast-part damping, no mass scaling: the waves are the answer
+here), the drag implicit. A base motion is taken in the frame of the base: every mass feels
+-a_b(t) (``TwoPhase.step``'s ``base``), and the records add the base's acceleration and
+velocity back.
 
 The time loop of :mod:`solver.dynamic.driver` drives it as it drives the one-phase body:
 the records are the means over the rows of material points (the pore pressure lives on
 the points); the solid's acceleration of a sample is its velocity change over the step.
-:meth:`SaturatedColumn.references` sets the run beside the references of
+:meth:`SaturatedColumn.references` sets a run under a sudden load beside the references of
 :mod:`solver.references.waves`: the front's arrival at each recorded depth (the undrained
 speed), the pressure jump B q behind it, and Terzaghi's compressible-water pressure at the
 end, once the waves have died.
