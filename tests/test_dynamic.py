@@ -276,7 +276,7 @@ def test_saturated_column_shaken_on_a_rigid_base(cli, tmp_path, direction):
     the reflections, sum_n (-1)^n [a_b(t - ((2n + 1) H - d) / c) + a_b(t - ((2n + 1) H + d)
     / c)], within 3 % of its peak over the first second (five passages), c the speed of
     the phases locked by drag: Vs = sqrt(G / rho) for x (measured 1.1 %), the undrained
-    c_u = sqrt((E_c + K_l / n) / rho) for y (measured 0.9 %)."""
+    c_u = sqrt((E_c + K_l / n) / rho) for y (measured 0.8 %)."""
     out = tmp_path / "out"
     check_ok(cli(QUIET + ["-mpm_phases", "2", "-mpm_base", "rigid", "-mpm_base_direction",
                           direction, "-mpm_t_end", "1", "-mpm_record_dt", "0.001"],

@@ -137,8 +137,8 @@ def validate(req: Request) -> None:
                          "motion or -mpm_load)")
     if req.loading is not None and req.direction == "x" and req.sides == "rollers":
         raise InputError("-mpm_load: with -mpm_base_direction x the sides are held "
-                         "vertically and carry it; give -mpm_base_direction y, or "
-                         "-mpm_bc_sides periodic")
+                         "vertically and carry it; give -mpm_base_direction y"
+                         + (", or -mpm_bc_sides periodic" if req.phases == 1 else ""))
     extent = req.loading.extent if req.loading is not None else ()
     if extent and not 0 <= extent[0] < extent[1] <= W:
         raise InputError(f"-mpm_load_extent {extent[0]:g},{extent[1]:g}: outside the top "

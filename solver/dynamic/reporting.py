@@ -109,6 +109,13 @@ class Series:
                                      for e in self.entries()]
 
 
+def rings(plan) -> bool:
+    """Whether the response never dies out: a rigid base, no Rayleigh damping (two phases:
+    the drag damps little of it, and nothing of a shear wave that locks the phases)."""
+    sh = plan.shaking
+    return sh.base == "rigid" and sh.a0 == 0 and sh.a1 == 0
+
+
 def exact_column(plan):
     """The exact one-dimensional reference of the scene (:class:`site.Column`) where it is
     one: one phase, horizontal shaking, no load, no mass-proportional damping (the
@@ -118,7 +125,7 @@ def exact_column(plan):
     if plan.phases != 1 or sh.direction != "x" or plan.loading is not None or sh.a0 > 0 \
             or plan.motion.form[0] == "none":
         return None
-    if sh.base == "rigid" and sh.a1 == 0:
+    if rings(plan):
         return None         # undamped on a rigid base it rings forever: no FFT answer
     soils = plan.ground.soils
     Vs = tuple(float(np.sqrt(s.E / (2 * (1 + s.nu)) / s.density)) for s in soils)
@@ -140,8 +147,11 @@ def finish(plan, model, rec, series, summary, comm, t_wall) -> int:
         a_in = plan.motion.acceleration(t)
         spec = histories.spectral(rec, a_in)
         block.update(pga_input=float(np.max(np.abs(a_in))),
-                     pga_surface=block["peak_surface_acceleration"],
-                     peaks_hz=spec["peaks"].tolist())
+                     pga_surface=block["peak_surface_acceleration"])
+        if not rings(plan):
+            block["peaks_hz"] = spec["peaks"].tolist()
+        else:   # an undamped column on a rigid base: its record's spectrum has no peaks
+            spec["peaks"] = np.zeros(0)
         col = exact_column(plan)
         if col is not None:
             base = "outcrop" if col.rock is not None else "within"
@@ -187,9 +197,11 @@ def _print_results(block, comm) -> None:
                      f"{block['pga_surface']:.4g} m/s2")
         jacobi = ("natural frequencies (Jacobi): " + ", ".join(
             f"{f:.4g}" for f in block["eigen_hz"]) + " Hz; ") if block["eigen_hz"] else ""
-        lines.append("Transfer function peaks: " + ", ".join(
-            f"{f:.4g}" for f in block["peaks_hz"]) + " Hz; " + jacobi + "layered rod: "
-            + ", ".join(f"{f:.4g}" for f in block["analytic_hz"]) + " Hz")
+        found = ", ".join(f"{f:.4g}" for f in block["peaks_hz"]) + " Hz" \
+            if "peaks_hz" in block else ("not sought (an undamped column on a rigid base "
+                                         "rings on: its transfer function has no width)")
+        lines.append("Transfer function peaks: " + found + "; " + jacobi + "layered rod: "
+                     + ", ".join(f"{f:.4g}" for f in block["analytic_hz"]) + " Hz")
     if "exact_error_pct_of_peak" in block:
         lines.append(f"Surface acceleration against the exact response of the column: "
                      f"largest difference {block['exact_error_pct_of_peak']:.3g} % of its "
