@@ -464,12 +464,9 @@ def nodal_update(C, dt, load_factor, damping):
                 # The water outside a drained side at its hydrostatic pressure.
                 fm += B[b + 6 + d]
                 fl += B[b + 8 + d]
-            ab = R[RBASE + d]
-            if ab != 0.0:
-                # In the frame of a moving rigid base both phases feel -a_b: the mixture's
-                # -(M_s + M_l) a_b, the liquid's -M~_l a_b (the drag sees no change).
-                fm -= (Ms + Ml) * ab
-                fl -= Mt * ab
+            # In a moving rigid base's frame both phases feel -a_b (the drag sees no change).
+            fm -= (Ms + Ml) * R[RBASE + d]
+            fl -= Mt * R[RBASE + d]
             if damping != 0.0:
                 # Local (Cundall) damping of the mixture's unbalanced force, against the
                 # mixture momentum, whose sign is that of M_s v_s + M_l v_l (per unit S:
