@@ -278,7 +278,7 @@ def side_dashpots(grid, soil) -> np.ndarray:
     for cy in range(cells):                  # the set-up only: once per run
         m = soil.soils[int(layers[cy])]
         Vp = math.sqrt(m.constrained_modulus / m.density)
-        Vs = math.sqrt(m.E / (2 * (1 + m.nu)) / m.density)
+        Vs = math.sqrt(m.shear_modulus / m.density)
         rows = slice(order * cy, order * cy + order + 1)
         out[rows, 0] += m.density * Vp * edge
         out[rows, 1] += m.density * Vs * edge

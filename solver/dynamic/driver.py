@@ -195,10 +195,10 @@ def plan_of(req: Request, comm) -> DynamicPlan:
         eigen_body = dataclasses.replace(body, bcs=Shaking(req.direction, "rigid").supports())
         eig, solver = lowest(comm, eigen_body, req.ground, 3, "jacobi", *req.jacobi,
                              "eigen_", EIGEN_DOFS)
-        modulus = [s.E / (2 * (1 + s.nu)) if req.direction == "x" else s.constrained_modulus
+        modulus = [s.shear_modulus if req.direction == "x" else s.constrained_modulus
                    for s in soils]
     else:         # the waves of a saturated column: undrained, the phases locked by drag
-        modulus = [s.E / (2 * (1 + s.nu)) if req.direction == "x" else
+        modulus = [s.shear_modulus if req.direction == "x" else
                    s.constrained_modulus + s.K_l / s.porosity for s in soils]
     analytic = layered.rod_frequencies(req.ground.thickness, modulus,
                                        [s.density for s in soils], 3)

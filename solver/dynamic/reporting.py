@@ -128,7 +128,7 @@ def exact_column(plan):
     if rings(plan):
         return None         # undamped on a rigid base it rings forever: no FFT answer
     soils = plan.ground.soils
-    Vs = tuple(float(np.sqrt(s.E / (2 * (1 + s.nu)) / s.density)) for s in soils)
+    Vs = tuple(float(np.sqrt(s.shear_modulus / s.density)) for s in soils)
     rock = (sh.rock_speed, sh.rock_rho, 0.0) if sh.base == "compliant" else None
     return site.Column(tuple(plan.ground.thickness), Vs, tuple(s.density for s in soils),
                        rock=rock, viscosity=sh.a1)

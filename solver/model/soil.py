@@ -107,6 +107,11 @@ class Soil:
         """E_c (Pa), the skeleton's modulus in one-dimensional compression."""
         return constrained_modulus(self.E, self.nu)
 
+    @property
+    def shear_modulus(self) -> float:
+        """G = E / 2(1 + nu) (Pa)."""
+        return self.E / (2 * (1 + self.nu))
+
     def elasticity(self) -> np.ndarray:
         """The skeleton's plane-strain D (Pa), 3 x 3."""
         return elasticity(self.E, self.nu)
