@@ -124,6 +124,8 @@ class ShakenBody:
         if loading is not None and loading.load > 0:
             top = (self.comp == 1) & (self.row == self.grid.nodes[1] - 1)
             f[top] = -top_forces(self.grid, loading)[i[top]]
+        # The free DOFs that are their own reduced DOF: all but the tied right side's.
+        self.kept = (i != nx - 1) if periodic else np.ones(len(idx), dtype=bool)
         self.T = _ties(K, idx, nx) if periodic else None
         self.K = K.PtAP(self.T) if periodic else K
         if periodic:
@@ -296,10 +298,11 @@ def _ties(K, idx, nx: int):
     start = mpi.exscan(len(idx)) or 0
     right = (every // 2) % nx == nx - 1
     reduced = np.cumsum(~right) - 1                  # numbers of the kept DOFs
-    where = {int(d): r for d, r in zip(every[~right], reduced[~right])}
     partner = every - 2 * (nx - 1) * right           # the same row's left node
     mine = slice(start, start + len(idx))
-    cols = np.array([where[int(d)] for d in partner[mine]], dtype=PETSc.IntType)
+    order = np.argsort(every)                        # where each partner stands in K
+    at = order[np.searchsorted(every[order], partner[mine])]
+    cols = reduced[at].astype(PETSc.IntType)
     ptr = np.arange(len(idx) + 1, dtype=PETSc.IntType)
     T = PETSc.Mat().createAIJ(((len(idx), None), (int(np.sum(~right[mine])), None)),
                               csr=(ptr, cols, np.ones(len(idx))), comm=comm)

@@ -266,8 +266,6 @@ class NodalModel:
         self.key, self.nx = b.row * 2 + b.comp, nx
         self.full = b.T.createVecLeft() if b.T is not None else None
         self.vec = b.K.createVecRight()
-        self.kept = np.ones(len(b.row), dtype=bool) if b.T is None else \
-            (b.free.getIndices() // 2) % nx != nx - 1
         self.mpi = comm.tompi4py()
         self.a = np.zeros(len(b.m))
         self.points = b.points
@@ -328,8 +326,8 @@ class NodalModel:
         whole = np.array(restart[2]["nodal"], dtype=float)
         idx = self.body.free.getIndices()
         at = np.searchsorted(whole[:, 0], idx)
-        self.body.u.setArray(whole[at, 1][self.kept])
-        self.body.v.setArray(whole[at, 2][self.kept])
+        self.body.u.setArray(whole[at, 1][self.body.kept])
+        self.body.v.setArray(whole[at, 2][self.body.kept])
 
     def fields(self) -> tuple:
         """(node coordinates (N, 2), {name: (N, 3)}) of every node at the time of the step
