@@ -258,8 +258,7 @@ class NodalModel:
         self.body = ShakenBody(comm, plan.body, plan.ground, plan.shaking, plan.sides,
                                plan.loading)
         b = self.body
-        every = max(1, math.ceil(plan.record_dt / b.dt - 1e-9))
-        self.dt, self.every = plan.record_dt / every, every
+        self.dt, self.every = histories.sample_step(plan.record_dt, b.dt)
         b.start(self.dt)
         ny, nx = b.grid.nodes[1], b.grid.nodes[0]
         self.heights = np.linspace(0.0, plan.body.height, ny)
@@ -310,16 +309,20 @@ class NodalModel:
         if not math.isfinite(self.mpi.allreduce(local, op=_max())):
             raise NumericalError(f"the run blew up at step {step} (t = {t:.6g} s)")
 
+    def _gathered(self, *values):
+        """Rows (natural DOF number, each of ``values`` on the free DOFs: this rank's
+        reduced values) of every free DOF, in natural order, on rank 0; None elsewhere."""
+        columns = [self.body.free.getIndices()] + [self._full(x) for x in values]
+        parts = self.mpi.gather(np.column_stack(columns), root=0)
+        if parts is None:
+            return None
+        whole = np.concatenate(parts)
+        return whole[np.argsort(whole[:, 0])]
+
     def state(self) -> dict:
         """u, v of every free DOF (natural numbers, gathered on rank 0)."""
-        b = self.body
-        idx = b.free.getIndices()
-        u, v = (self._full(x) for x in b.state())
-        parts = self.mpi.gather(np.column_stack([idx, u, v]), root=0)
-        if parts is None:
-            return {}
-        whole = np.concatenate(parts)
-        return {"nodal": whole[np.argsort(whole[:, 0])].tolist()}
+        whole = self._gathered(*self.body.state())
+        return {} if whole is None else {"nodal": whole.tolist()}
 
     def restore(self, restart) -> None:
         """Take up the state of a checkpoint (:func:`checkpoint.read`'s)."""
@@ -334,12 +337,9 @@ class NodalModel:
         just taken, natural order (rank 0; None elsewhere): displacement, velocity and
         acceleration (relative to a rigid base)."""
         b = self.body
-        idx = b.free.getIndices()
-        u, v = (self._full(x) for x in self._at_step_start())
-        parts = self.mpi.gather(np.column_stack([idx, u, v, self._full(self.a)]), root=0)
-        if parts is None:
+        whole = self._gathered(*self._at_step_start(), self.a)
+        if whole is None:
             return None
-        whole = np.concatenate(parts)
         nx, ny = b.grid.nodes
         n = nx * ny
         out = {name: np.zeros((n, 3)) for name in ("displacement", "velocity",

@@ -27,6 +27,13 @@ PEAK_BAND = 0.01        # resonances are sought where the input has 1 % of its p
 PROMINENCE = 0.1        # and stand 10 % above the trough beside them
 
 
+def sample_step(record_dt: float, stable: float) -> tuple:
+    """(dt, steps per sample): the largest step at most ``stable`` (s) that divides the
+    record interval ``record_dt`` (s), so that every sample falls on a step."""
+    every = max(1, math.ceil(record_dt / stable - 1e-9))
+    return record_dt / every, every
+
+
 def record_rows(heights, H: float, depths) -> tuple:
     """(the rows recorded, their depths (m)): the surface, the row nearest each depth of
     ``depths`` (m below the surface) and the base, each once, from the surface down;

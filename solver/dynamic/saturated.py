@@ -28,7 +28,7 @@ from ..io import checkpoint
 from ..model import scene
 from ..model.scene import Loading
 from ..references import analytic, waves
-from .histories import COLUMNS
+from .histories import COLUMNS, sample_step
 
 SAFETY = 0.5        # of the smallest critical time step, as the consolidation analysis
 DIED = 6            # decay times after which the waves count as gone (e^-6: 0.25 %)
@@ -67,8 +67,7 @@ class SaturatedColumn:
         limits, _ = schedules.critical_steps(comm, plan.body, soil, self.scheme,
                                              self.grid.h, False, ("jacobi", 1e-15, 50))
         stable = schedules.choose_dt(limits, None, SAFETY)
-        every = max(1, math.ceil(plan.record_dt / stable - 1e-9))
-        self.dt, self.every = plan.record_dt / every, every
+        self.dt, self.every = sample_step(plan.record_dt, stable)
         self.lag = self.dt          # a sample is of the step's end
         self.mpi = comm.tompi4py()
         y0 = self.points.get("x0")[:, 1]
