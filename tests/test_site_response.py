@@ -8,7 +8,7 @@ import pytest
 
 from solver.common.errors import InputError
 from solver.io import records
-from solver.model.motion import resample, ricker, sine
+from solver.model.motion import Motion, ricker, sine
 from solver.references.site import Column, layer_frequencies, peaks, response, transfer
 
 H, VS, RHO = 20.0, 200.0, 1900.0
@@ -95,7 +95,7 @@ def test_ricker_and_sine():
     assert np.all(s[t > 1.5] == 0) and s[t <= 1.5].max() == pytest.approx(1.0, rel=1e-4)
 
 
-def test_records_read_and_resampled(tmp_path):
+def test_records_read_and_interpolated(tmp_path):
     """A CSV (a header, comments) and a PEER .AT2 (in g) give the same record; a run longer
     than the record is padded with zeros and says so."""
     t = np.arange(0, 1.0, 0.01)
@@ -112,8 +112,9 @@ def test_records_read_and_resampled(tmp_path):
         tr, ar = records.read(str(path))
         np.testing.assert_allclose(tr, t, atol=1e-12)
         np.testing.assert_allclose(ar, a, atol=1e-8)
-    out, padded = resample(t, a, np.arange(0, 2.0, 0.004))
-    assert padded and np.all(out[np.arange(0, 2.0, 0.004) > 1.0] == 0)
+    motion = Motion(("file", str(csv)), 1.0, (t, a))
+    out = motion.acceleration(np.arange(0, 2.0, 0.004))
+    assert motion.end < 2.0 and np.all(out[np.arange(0, 2.0, 0.004) > 1.0] == 0)
     np.testing.assert_allclose(out[:240:5], np.interp(np.arange(0, 0.96, 0.02), t, a))
 
 

@@ -1,5 +1,6 @@
-"""Base motions (issue 30): analytic wavelets and the resampling of a record onto a run's
-time steps. Accelerations in m/s2, times in s."""
+"""Base motions (issue 30): analytic wavelets, the form of ``-mpm_base_motion`` and a motion
+as functions of time (a record linear between its samples, zero after its end).
+Accelerations in m/s2, times in s."""
 
 from __future__ import annotations
 
@@ -17,14 +18,6 @@ def sine(t, f: float, amp: float, cycles: float) -> np.ndarray:
     """``cycles`` cycles of amp sin(2 pi f t) from t = 0 (Hz, m/s2), then rest."""
     t = np.asarray(t, dtype=float)
     return np.where((t >= 0) & (t <= cycles / f), amp * np.sin(2 * np.pi * f * t), 0.0)
-
-
-def resample(t_rec, a_rec, t) -> tuple:
-    """(the record (t_rec, a_rec) linearly interpolated at the times t, whether t reaches
-    past the record's end): a record shorter than the run is padded with zeros."""
-    t = np.asarray(t, dtype=float)
-    a = np.interp(t, t_rec, a_rec, left=0.0, right=0.0)
-    return a, bool(t.size and t[-1] > t_rec[-1] * (1 + 1e-12))
 
 
 def ricker_velocity(t, f0: float, amp: float) -> np.ndarray:

@@ -52,11 +52,6 @@ def undrained_speed(E_c, K_l, n, rho_s, rho_l) -> float:
     return math.sqrt((E_c + K_l / n) / rho)
 
 
-def drag_time(n, rho_l, k) -> float:
-    """rho_l / b = k / (n g) (s): the time over which drag locks the liquid to the solid."""
-    return k / (n * G_REF)
-
-
 def decay_time(E_c, K_l, n, rho_s, rho_l, k, f) -> float:
     """The time (s) over which the fast wave of frequency f (Hz) loses a factor e of its
     amplitude by drag: 1 / (Im(kappa) c)."""
