@@ -109,7 +109,7 @@ def column_params(cfg: dict):
 def build_model(comm, p, scheme):
     """Grid, points and TwoPhase model of ``p``, built as ``consolidation.driver.run`` builds them,
     and the seconds (wall) that took. The caller destroys the three."""
-    from solver.consolidation.explicit.twophase import TwoPhase, point_fields
+    from solver.stepping.twophase import TwoPhase, point_fields
     from solver.model import scene
     from solver.model.soil import Soil
 
@@ -202,8 +202,8 @@ def worker(cfg: dict) -> None:
     petsc4py.init([sys.argv[0]] + cfg.get("petsc_args", []))
     from petsc4py import PETSc
 
-    from solver.consolidation.explicit.scheme import Scheme
-    from solver.consolidation.explicit.twophase import compile_kernels
+    from solver.stepping.scheme import Scheme
+    from solver.stepping.twophase import compile_kernels
     from solver.model import scene
     from solver.model.soil import Soil
 

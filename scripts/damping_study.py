@@ -31,7 +31,7 @@ if __name__ == "__main__":
 
     use_petsc_python()
 
-from solver.consolidation.explicit import inertia  # noqa: E402
+from solver.stepping import inertia  # noqa: E402
 from solver.io import output  # noqa: E402
 from solver.model.soil import Soil  # noqa: E402
 from solver.studies import study  # noqa: E402

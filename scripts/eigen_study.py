@@ -3,8 +3,8 @@
 
 Refines the paper's soil column (0.1 m x 1 m, E = 10 MPa, nu = 0, 2190 kg/m3; Q4 with 2 x 2
 points per cell, Q8/Q9 with 3 x 3) and, for each model, times
-- Jacobi: ``solver.eigen.jacobi.solve``, all n eigenvalues and the 5 lowest modes;
-- SLEPc: ``solver.eigen.frequency.slepc_solve``, the 5 lowest eigenpairs (shift-and-invert, MUMPS);
+- Jacobi: ``solver.modal.jacobi.solve``, all n eigenvalues and the 5 lowest modes;
+- SLEPc: ``solver.modal.frequency.slepc_solve``, the 5 lowest eigenpairs (shift-and-invert, MUMPS);
 - LAPACK: numpy on rank 0, L = cholesky(M), C = L^-1 K L^-T, eigh(C), X = L^-T Y: all n
   eigenpairs (the dense reference the Jacobi goal is measured against);
 and the relative error of modes 1 to 5 against the analytic 1D rod with the constrained
@@ -115,8 +115,8 @@ def timed(comm, fn, repeats):
 
 def measure(comm, element, cells, repeats, with_jacobi=True):
     """One model: a dict per solver with seconds, frequencies (Hz) and errors vs the rod."""
-    from solver.eigen import jacobi
-    from solver.eigen.frequency import frequencies, slepc_solve
+    from solver.modal import jacobi
+    from solver.modal.frequency import frequencies, slepc_solve
     from solver.model.scene import Body, build, destroy
     from solver.model.soil import Soil
     from solver.references import analytic

@@ -138,8 +138,8 @@ def mass_scaling(cells) -> float:
     """The factor S the scene's explicit run picks (-mpm_mass_scaling auto)."""
     from petsc4py import PETSc
 
-    from solver.consolidation.explicit import inertia
-    from solver.consolidation.explicit.scheme import Scheme
+    from solver.stepping import inertia
+    from solver.stepping.scheme import Scheme
 
     p, ground, body, loading = _scene(cells)
     soil = ground.as_material()

@@ -57,7 +57,7 @@ def base(k, config):
     the earliest report time, which the short runs change) and given as a number."""
     opts = list(CONFIGS[config])
     if "auto" in opts:
-        from solver.consolidation.explicit import inertia
+        from solver.stepping import inertia
         from solver.model.soil import Soil
 
         p = study.read_scene(os.path.join(ROOT, CASE), ["-mpm_k", f"{k:g}", "-mpm_Tv_end",

@@ -423,7 +423,7 @@ def typed(p):
     (for tests that build models by hand)."""
     from types import SimpleNamespace
 
-    from solver.consolidation.explicit.scheme import Scheme
+    from solver.stepping.scheme import Scheme
     from solver.model.scene import Body, Loading
     from solver.model.soil import Ground
 

@@ -295,7 +295,7 @@ def test_refined_grids_take_the_patch_and_keep_the_limit():
 
     from conftest import typed
 
-    from solver.consolidation.explicit import timestep
+    from solver.stepping import timestep
 
     drag = dict(drag="explicit", damping=0.5, fast_damping=0, mass_scaling="none")
     for element, cells, ppc in PAPER_SCENES:
@@ -319,7 +319,7 @@ def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():
 
     from conftest import typed
 
-    from solver.eigen import frequency
+    from solver.modal import frequency
 
     t = typed(scene_options(cells="3,30"))
     jacobi_f1 = frequency.fundamental_frequency(PETSc.COMM_SELF, t.body, t.soil)

@@ -1,4 +1,4 @@
-"""The shaken body (solver/dynamic/column.py, issue 30) against the exact site response
+"""The shaken body (solver/stepping/onephase.py, issue 30) against the exact site response
 (solver/references/site.py, d'Alembert's reflections) and the Jacobi eigenfrequencies of the
 same column."""
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from petsc4py import PETSc
 
-from solver.dynamic.column import ShakenBody, Shaking, rayleigh
-from solver.eigen import jacobi
-from solver.eigen.frequency import frequencies
+from solver.stepping.onephase import ShakenBody, Shaking, rayleigh
+from solver.modal import jacobi
+from solver.modal.frequency import frequencies
 from solver.model.motion import ricker, ricker_velocity
 from solver.model.scene import Body, build, destroy
 from solver.model.soil import Soil

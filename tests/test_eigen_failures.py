@@ -117,7 +117,7 @@ def test_loose_tolerance_reports_accuracy(cli):
 def test_residual_is_the_dense_residual():
     """JacobiResult.residual equals ||K phi - lambda M phi|| / (||K phi|| + |lambda| ||M phi||)
     computed densely from the returned modes, for a loosely converged random pencil."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(30, 41)
     res = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 4, tol=0.3)
@@ -154,7 +154,7 @@ def test_two_sweeps_far_from_converged(cli):
 @pytest.mark.parametrize("kind", ["singular", "indefinite", "diagonal"])
 def test_check_mass_kinds_and_rank(kind):
     """jacobi.check_mass against numpy: the kind of failure and the numerical rank."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     rng = np.random.default_rng(5)
     n = 12
@@ -181,7 +181,7 @@ def test_check_mass_kinds_and_rank(kind):
 
 def test_non_finite_matrices():
     from solver.common.errors import NumericalError
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(8, 9)
     Kbad = Kd.copy()

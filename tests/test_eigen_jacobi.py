@@ -1,4 +1,4 @@
-"""The generalized Jacobi solver (solver.eigen.jacobi) on its own: random SPD pencils
+"""The generalized Jacobi solver (solver.modal.jacobi) on its own: random SPD pencils
 against numpy, eq. (3) rotations, the round-robin ordering, the blocked method (block sizes,
 orderings, every pair once per sweep), failures, and the same checks on 2 and 3 ranks
 (``mpi`` tests).
@@ -64,7 +64,7 @@ def gather_vectors(vectors):
 def check_pencil(n, seed, nmodes=None, block=None):
     """Solve a random pencil (``block``: the Jacobi block sizes, None: automatic); return
     (max rel eigenvalue error, orthonormality error, max relative residual, sweeps)."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(n, seed)
     K, M = petsc_mat(Kd), petsc_mat(Md)
@@ -94,7 +94,7 @@ def test_random_spd_pencil(n, seed):
 
 
 def test_lowest_modes_only_and_ascending():
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(24, 7)
     res = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 4)
@@ -108,7 +108,7 @@ def test_lowest_modes_only_and_ascending():
 
 
 def test_diagonal_pencil_needs_no_rotation():
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     k = np.array([5.0, 1.0, 3.0, 2.0, 4.0])
     m = np.array([1.0, 2.0, 0.5, 1.0, 4.0])
@@ -128,7 +128,7 @@ def _rotate(K, M, i, j, alpha, gamma):
 
 def test_rotation_parameters_zero_the_pair():
     """Eq. (3): P^T K P and P^T M P have zero (i, j) entries, for many random 2 x 2 pairs."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     rng = np.random.default_rng(11)
     for trial in range(300):
@@ -143,7 +143,7 @@ def test_rotation_parameters_zero_the_pair():
 
 
 def test_rotation_parameters_vectorised_and_special_cases():
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     pairs = [random_pencil(2, 2000 + t) for t in range(50)]
     # Proportional blocks (K = c M): x = 0 in Bathe's formula.
@@ -169,7 +169,7 @@ def test_rotation_parameters_vectorised_and_special_cases():
 
 def test_rotation_in_a_larger_matrix():
     """Rotating (i, j) inside an n x n pencil zeroes exactly that pair."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     K, M = random_pencil(7, 21)
     for i, j in [(0, 6), (2, 3), (5, 1)]:
@@ -181,7 +181,7 @@ def test_rotation_in_a_larger_matrix():
 
 @pytest.mark.parametrize("n", [2, 4, 6, 8, 10, 38, 60])
 def test_tournament_visits_every_pair_once(n):
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     src = jacobi.tournament(n)
     assert sorted(src.tolist()) == list(range(n))       # a permutation of the slots
@@ -206,7 +206,7 @@ def test_tournament_visits_every_pair_once(n):
 
 def test_too_few_sweeps_raise_numerical_error():
     from solver.common.errors import NumericalError
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(20, 31)
     with pytest.raises(NumericalError, match="did not converge"):
@@ -216,7 +216,7 @@ def test_too_few_sweeps_raise_numerical_error():
 
 def test_zero_mass_diagonal_raises_numerical_error():
     from solver.common.errors import NumericalError
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(9, 32)
     Md[4, :] = Md[:, 4] = 0.0      # a DOF without mass: singular M
@@ -226,7 +226,7 @@ def test_zero_mass_diagonal_raises_numerical_error():
 
 def test_indefinite_mass_raises_numerical_error():
     from solver.common.errors import NumericalError
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd = np.eye(4)
     Md = np.eye(4)
@@ -237,7 +237,7 @@ def test_indefinite_mass_raises_numerical_error():
 
 def test_singular_mass_with_positive_diagonal_raises_numerical_error():
     from solver.common.errors import NumericalError
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, _ = random_pencil(6, 33)
     v = np.ones((6, 1))
@@ -269,7 +269,7 @@ def test_blocked_and_scalar_agree():
     """The same pencil by the scalar method (block 1) and by blocks: same eigenvalues and
     modes, and the blocked sweep count within one of the scalar one (both rotate every pair
     once per sweep, in different orders)."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(96, 8)
     scalar = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 6, block=1)
@@ -284,7 +284,7 @@ def test_pipelined_rounds_match_sequential(monkeypatch):
     """On one rank the next round's pair problems are built from this round's data and
     swept in a second thread; without that thread (as on several ranks) the results agree
     to rounding and take the same sweeps."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = random_pencil(120, 12)
     piped = jacobi.solve(petsc_mat(Kd), petsc_mat(Md), 5, block=(12, 3, 1))
@@ -295,7 +295,7 @@ def test_pipelined_rounds_match_sequential(monkeypatch):
 
 
 def test_block_sizes_choice():
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     for n in (1, 2, 20, 60, 80, jacobi.BLOCKED_MIN_DOFS - 1):
         assert jacobi.block_sizes(n) == (1,), n          # the paper's models stay scalar
@@ -314,7 +314,7 @@ def test_block_sizes_choice():
 def test_tournament_moves_are_the_tournament(nb):
     """Writing pair q's blocks through _tournament_moves lands them where tournament() puts
     them for the next round."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     src = jacobi.tournament(2 * nb)
     label = np.arange(2 * nb)
@@ -327,7 +327,7 @@ def test_tournament_moves_are_the_tournament(nb):
 def _pairs_of_level(labels, sizes, cross, seen):
     """Follow the labels of one problem through a blocked sweep (as jacobi._level moves
     them), recording each scalar pair rotated; returns the labels in their final slots."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     N, s = len(labels), sizes[0]
     plan = jacobi._plan(N, s, cross)
@@ -364,7 +364,7 @@ def test_level_rotates_every_pair_once(N, sizes, cross):
 def test_fast_rotations_match_rotation_parameters():
     """The blocked method's batched formulas give eq. (3)'s alpha, gamma (special cases
     included)."""
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     pairs = [random_pencil(2, 3000 + t) for t in range(200)]
     Mp = random_pencil(2, 99)[1]
@@ -403,7 +403,7 @@ def test_random_spd_pencil_under_mpi(ranks):
 def test_indefinite_mass_under_mpi_raises_on_every_rank():
     """Every rank must raise NumericalError (not only the rank holding the bad pivot)."""
     from solver.common.errors import NumericalError
-    from solver.eigen import jacobi
+    from solver.modal import jacobi
 
     Kd, Md = np.eye(4), np.eye(4)
     Md[0:2, 0:2] = [[1.0, 2.0], [2.0, 1.0]]

@@ -173,7 +173,7 @@ def test_non_finite_values_are_caught():
     from petsc4py import PETSc
 
     from solver.common.errors import NumericalError
-    from solver.consolidation.explicit.twophase import TwoPhase, point_fields
+    from solver.stepping.twophase import TwoPhase, point_fields
     from solver.io import options
     from solver.model.grid import Grid
     from solver.model.points import place

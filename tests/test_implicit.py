@@ -9,7 +9,7 @@ import pytest
 from petsc4py import PETSc
 
 from conftest import check_ok
-from solver.consolidation.explicit.twophase import POINT_FIELDS
+from solver.stepping.twophase import POINT_FIELDS
 from solver.consolidation.implicit import choice
 from solver.consolidation.implicit.quasistatic import QuasiStatic, step_ends
 from solver.consolidation.plan import References
@@ -242,8 +242,8 @@ def test_auto_counts_the_work_each_scheme_does(cli, tmp_path):
 
 def _scene_of(p):
     """(soil, body, the explicit Scheme, References) of the options p."""
-    from solver.consolidation.explicit import inertia
-    from solver.consolidation.explicit.scheme import Scheme
+    from solver.stepping import inertia
+    from solver.stepping.scheme import Scheme
 
     soil = Ground.from_options(p).as_material()
     body, loading = Body.from_options(p), Loading.from_options(p)

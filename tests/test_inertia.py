@@ -35,7 +35,7 @@ def _consistent_errors(s):
 def _model(**opts):
     from conftest import typed
 
-    from solver.consolidation.explicit import twophase
+    from solver.stepping import twophase
     from solver.model.grid import Grid
     from solver.model.points import place
     from test_step_reference import _params
@@ -349,7 +349,7 @@ def test_slowest_wave_of_columns_and_bodies():
     drainage through a side or walls that hold the sides make it a body, whose slowest wave
     is its lowest drained mode: on the 2 m x 1 m block with rollers on the sides and a fixed
     base, the drained column's compression mode c / (4H) (16.89 Hz, Q4 16 x 8: 16.93 Hz)."""
-    from solver.consolidation.explicit import inertia
+    from solver.stepping import inertia
     from solver.model.scene import Body, Loading
     from solver.model.soil import Soil
 

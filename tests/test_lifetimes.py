@@ -6,7 +6,7 @@ import pytest
 from conftest import ONE_AND_TWO_RANKS, scene_options, typed
 from petsc4py import PETSc
 
-from solver.consolidation.explicit.twophase import TwoPhase, point_fields
+from solver.stepping.twophase import TwoPhase, point_fields
 from solver.model import assembly, scene
 from solver.model.grid import Grid
 
@@ -79,7 +79,7 @@ def test_stage_is_popped_when_its_block_raises():
 
 def test_slepc_solver_is_destroyed_when_the_solve_fails(monkeypatch):
     from solver.common.errors import NumericalError
-    from solver.eigen import frequency
+    from solver.modal import frequency
 
     made = scene.build(PETSc.COMM_WORLD, *_body_soil(scene_options(analysis="eigen")))
     _, _, K, M, _ = made

@@ -199,7 +199,7 @@ def test_geostatic_start_takes_K0_per_layer(K0, want):
     from petsc4py import PETSc
 
     from conftest import scene_options
-    from solver.consolidation.explicit import twophase
+    from solver.stepping import twophase
     from solver.model import scene
     from solver.model.soil import Ground
 

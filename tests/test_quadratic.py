@@ -169,7 +169,7 @@ def _linearised(element, cells, **scheme):
 
     from conftest import typed
 
-    from solver.consolidation.explicit import timestep
+    from solver.stepping import timestep
     from solver.io import options
     from solver.model.grid import Grid
     from solver.model.points import place

@@ -207,11 +207,11 @@ def _signal_in(monkeypatch, target, signum):
 
 
 @pytest.mark.parametrize("target, signum, stage", [
-    ("solver.consolidation.explicit.timestep.discrete_limit", signal.SIGINT,
+    ("solver.stepping.timestep.discrete_limit", signal.SIGINT,
      "set-up: the stability analysis"),
-    ("solver.eigen.frequency.fundamental_frequency", signal.SIGTERM,
+    ("solver.modal.frequency.fundamental_frequency", signal.SIGTERM,
      "set-up: the fundamental frequency f1"),
-    ("solver.consolidation.explicit.inertia.scaling", signal.SIGINT,
+    ("solver.stepping.inertia.scaling", signal.SIGINT,
      "set-up: the time scheme and mass scaling")])
 def test_signal_in_the_set_up(cli, tmp_path, monkeypatch, target, signum, stage):
     _signal_in(monkeypatch, target, signum)
@@ -249,7 +249,7 @@ def test_signal_in_the_reporting_checkpoints_the_whole_run(cli, tmp_path, monkey
 
 
 def test_signal_in_the_eigen_analysis(cli, tmp_path, monkeypatch):
-    _signal_in(monkeypatch, "solver.eigen.jacobi.solve", signal.SIGTERM)
+    _signal_in(monkeypatch, "solver.modal.jacobi.solve", signal.SIGTERM)
     res = cli(["-mpm_figures", "0"], options_file="eigen-q4", out_dir=tmp_path)
     assert res.returncode == 4, res.stderr
     assert res.stderr == ("solver: error: stopped by SIGTERM during the eigen analysis; "

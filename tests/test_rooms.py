@@ -1,14 +1,16 @@
-"""The rooms of solver/ and the one direction of their imports (issue 28).
+"""The rooms of solver/ and the one direction of their imports.
 
 solver/ is the command line (``__main__``) and its rooms, lowest first (ROOMS): ``common``
-(errors, signals, clock), ``model``, ``references``, ``io``, ``eigen``, the consolidation's
-``explicit`` step, ``consolidation``, ``studies``. A module imports modules of its own room
-and of rooms before it, never one after it; the package itself (its version) is open to all.
-So the model never builds on a reference that checks it, the writers know nothing of the
-analyses they write for, and the explicit step nothing of the run around it. The analyses'
-drivers are imported by the command line alone (neither analysis runs the other; the
-consolidation run takes f1 from ``eigen.frequency``). No import cycle between modules, and
-each room's ``__init__`` docstring names what it holds and the rooms it may import.
+(errors, signals, clock), ``model``, ``references``, ``io``, ``run`` (the frame every analysis
+runs in: its record and the loop), ``modal`` (the eigensolvers), ``stepping`` (the engines
+that step a body in time), then the analyses ``eigen``, ``consolidation`` (with its implicit
+scheme's room) and ``dynamic``, and ``studies``. A module imports modules of its own room and
+of rooms before it, never one after it; the package itself (its version) is open to all. So
+the model never builds on a reference that checks it, the writers know nothing of the
+analyses they write for, and the engines nothing of the run around them. No analysis's room
+imports another's (what two share lives before them), the analyses' drivers are imported by
+the command line alone, no import cycle between modules, and each room's ``__init__``
+docstring names what it holds and the rooms it may import.
 
 Imports are read from the syntax tree, anywhere in a module (inside functions too),
 relative or absolute."""
@@ -23,11 +25,13 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SOLVER = REPO / "solver"
-ROOMS = ("common", "model", "references", "io", "eigen", "consolidation.explicit",
-         "consolidation.implicit",
-         "consolidation", "dynamic", "studies")
+ROOMS = ("common", "model", "references", "io", "run", "modal", "stepping", "eigen",
+         "consolidation.implicit", "consolidation", "dynamic", "studies")
 CLI = "__main__"
-DRIVERS = ("eigen.driver", "consolidation.driver")
+DRIVERS = ("eigen.driver", "consolidation.driver", "dynamic.driver")
+# The analyses' rooms: none imports another's (what two of them share lives in a room before
+# them: the modal solvers, the engines that step, the run's frame).
+ANALYSES = ("eigen", "consolidation", "dynamic")
 
 
 def _name(path: Path) -> str:
@@ -140,6 +144,20 @@ def test_only_the_command_line_runs_an_analysis():
     assert not bad, bad
 
 
+def _analysis(room):
+    """The analysis whose room holds ``room`` (consolidation for consolidation.implicit), or
+    None for a room that serves every analysis."""
+    return next((a for a in ANALYSES if room == a or (room or "").startswith(a + ".")), None)
+
+
+def test_no_analysis_imports_another():
+    bad = [f"{name}:{line} imports {target}" for name, imports in _graph().items()
+           for line, target in imports
+           if None not in (_analysis(_room(name)), _analysis(_room(target)))
+           and _analysis(_room(name)) != _analysis(_room(target))]
+    assert not bad, bad
+
+
 def _cycle(graph):
     """One import cycle of ``graph`` ({module: imported modules}) as a list, or None."""
     state = {}
@@ -200,11 +218,11 @@ def test_setuptools_installs_every_room():
 
 def test_the_checks_see_each_form_of_import():
     known = {"", CLI, "io", "io.output", "model", "model.scene", "common", "common.errors",
-             "eigen", "eigen.driver", "consolidation", "consolidation.explicit",
-             "consolidation.explicit.twophase"}
+             "eigen", "eigen.driver", "consolidation", "consolidation.implicit",
+             "consolidation.implicit.operators"}
     for source, name, target in [
             ("from ..io import output", "model.scene", "io.output"),
-            ("from ...model.scene import Body", "consolidation.explicit.twophase",
+            ("from ...model.scene import Body", "consolidation.implicit.operators",
              "model.scene"),
             ("from . import scene", "model.grid", "model.scene"),
             ("from solver.io import output", "model.scene", "io.output"),
@@ -215,9 +233,12 @@ def test_the_checks_see_each_form_of_import():
         got = [t for _, t in _imports(name, ast.parse(source), False, known)]
         assert got == [target], (source, got)
     assert _offences({"model.scene": [(1, "io.output")]})          # up: refused
-    assert _offences({"consolidation.explicit.twophase": [(1, "consolidation.plan")]})
+    assert _offences({"stepping.twophase": [(1, "consolidation.plan")]})
+    assert _offences({"consolidation.implicit.operators": [(1, "consolidation.plan")]})
     assert not _offences({"io.output": [(1, "model.scene")], CLI: [(1, "eigen.driver")],
-                          "consolidation.plan": [(1, "consolidation.explicit.twophase")],
+                          "consolidation.plan": [(1, "stepping.twophase")],
                           "io.provenance": [(1, "")]})
+    assert _analysis("consolidation.implicit") == "consolidation"
+    assert _analysis("stepping") is None and _analysis("dynamic") == "dynamic"
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert _cycle({"a": {"b"}, "b": set(), "c": {"a", "b"}}) is None

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from solver.consolidation.explicit import kernels
+from solver.stepping import kernels
 from solver.model import shapes
 
 ELEMENTS = ("q4", "q8", "q9")

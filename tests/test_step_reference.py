@@ -20,7 +20,7 @@ import pytest
 from conftest import check_ok, scene_options, typed
 from petsc4py import PETSc
 
-from solver.consolidation.explicit import kernels, twophase
+from solver.stepping import kernels, twophase
 from solver.model import assembly
 from solver.model.grid import Grid
 from solver.model.points import place

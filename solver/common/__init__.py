@@ -7,7 +7,7 @@
 
 May import: nothing of the package.
 
-The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line
 (solver/__main__.py). A module imports its own room and the rooms before it, never one after
 it (tests/test_rooms.py).

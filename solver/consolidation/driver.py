@@ -4,7 +4,7 @@
 :class:`solver.consolidation.plan.Plan`: the soil, the body and its loading, the time scheme
 and its steps (:mod:`solver.consolidation.schedules`: the explicit step's critical time
 steps, or the implicit scheme's steps graded from the load), and the references. The time
-loop then drives the explicit step (:mod:`solver.consolidation.explicit.twophase`) or the
+loop then drives the explicit step (:mod:`solver.stepping.twophase`) or the
 implicit scheme (:mod:`solver.consolidation.implicit.quasistatic`) from t = 0 to T_v =
 ``-mpm_Tv_end`` with a progress line and hands its results to
 :mod:`solver.consolidation.reporting`, which compares the monitor point and whole profiles at
@@ -34,9 +34,9 @@ from ..model.scene import Body, Loading
 from ..model.soil import Ground, check_count
 from ..references import static
 from . import fe_reference, plan as plans, reporting, schedules, settlement, workprecision
-from .explicit import inertia
-from .explicit.scheme import Scheme, lateral_drainage_notes
-from .explicit.twophase import TwoPhase, point_fields
+from ..stepping import inertia
+from ..stepping.scheme import Scheme, lateral_drainage_notes
+from ..stepping.twophase import TwoPhase, point_fields
 from .implicit import choice
 from .implicit.quasistatic import QuasiStatic
 from .plan import Outputs, Plan, References

@@ -3,7 +3,7 @@
 After the set-up nothing reads the options: the time loop, the reporting and the output
 take the plan (or the few of its values they need). A plan is the soil, the body and its
 loading (:mod:`solver.model.soil`, :mod:`solver.model.scene`), the step's scheme
-(:mod:`solver.consolidation.explicit.scheme`), the schedule (time step, steps, report and
+(:mod:`solver.stepping.scheme`), the schedule (time step, steps, report and
 isochrone times), the references the results are compared with, where the results go, and
 the run's identity.
 """
@@ -11,7 +11,7 @@ the run's identity.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,7 +19,8 @@ from ..io.output import Outputs
 from ..model.scene import Body, Loading
 from ..model.soil import Soil
 from ..references import analytic, layered
-from .explicit.scheme import Scheme
+from ..stepping.scheme import Scheme
+from ..stepping.timestep import Limits
 
 
 @dataclass(frozen=True)
@@ -233,20 +234,6 @@ class References:
     def ratio(self) -> float:
         """c2 / c_v: the compressible-water reference's time factor per T_v."""
         return self.c2 / self.c_v
-
-
-@dataclass(frozen=True)
-class Limits:
-    """The critical time steps (s) by criterion, the one that governs dt, those dt
-    exceeds, f1 (Hz) and the inertia regime
-    (:func:`solver.consolidation.explicit.inertia.regime`)."""
-
-    steps: dict
-    governing: str
-    exceeded: tuple
-    f1: float = math.nan
-    regime: dict = field(default_factory=dict)
-    warning: str = ""
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ import os
 import numpy as np
 from petsc4py import PETSc
 
-from ..eigen import frequency
+from ..modal import frequency
 from ..io import figures, output
 from ..io.fields import PointSeries
 from ..references import analytic

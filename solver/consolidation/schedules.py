@@ -2,8 +2,8 @@
 
 :func:`method` picks and prints the scheme (:mod:`solver.consolidation.implicit.choice`);
 :func:`limits_and_schedule` gives the explicit step its critical time steps, dt and equal
-steps (the criteria of :mod:`solver.consolidation.explicit.timestep`, f1 from
-:mod:`solver.eigen.frequency`), or the implicit scheme its steps graded from the load
+steps (the criteria of :mod:`solver.stepping.timestep`, f1 from
+:mod:`solver.modal.frequency`), or the implicit scheme its steps graded from the load
 (:func:`solver.consolidation.implicit.quasistatic.step_ends`), each report and isochrone
 time a step's end. Everything here takes the typed :class:`choice.Request`, not the
 options.
@@ -13,20 +13,18 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 from petsc4py import PETSc
 
-from ..common import signals
-from ..common.errors import InputError, NotConverged, NumericalError
-from ..eigen import frequency
+from ..common.errors import InputError
 from . import reporting
-from .explicit import inertia, timestep
-from .explicit.inertia import MAX_STEPS
+from ..stepping import inertia, timestep
+from ..stepping.inertia import MAX_STEPS
+from ..stepping.timestep import Limits, choose_dt, critical_steps
 from .implicit import choice
 from .implicit.quasistatic import graded_steps, named_times
-from .plan import Limits, Schedule
+from .plan import Schedule
 
 
 def method(comm, req, soil, body, scheme, refs, restart_state=None) -> str:
@@ -93,51 +91,6 @@ def implicit_schedule(req, refs, state) -> Schedule:
                     *req.cadence, times=tuple(ends.tolist()), sample_every=1)
 
 
-def critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
-    """(the critical time steps as :class:`Limits`, f1 and the governing one set, and the
-    patch of the stability analysis), in the log stage "Critical time steps"; ``h`` the
-    cell sizes (m); ``stability``: run the stability analysis; ``f1_solver`` (solver,
-    tolerance, sweeps) the arguments of :func:`frequency.fundamental_frequency`."""
-    S = scheme.mass_scaling
-    with PETSc.Log.Stage("Critical time steps"):
-        signals.stage("set-up: the fundamental frequency f1")
-        try:
-            f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
-        except NotConverged:
-            raise                    # a solver the options chose (-f1_eps_*) that failed
-        except NumericalError as exc:
-            # f1 only feeds the spring-mass criterion, which does not bound stability (see
-            # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
-            # reason to refuse the run, whose lumped masses are positive.
-            PETSc.Sys.Print(f"Note: no fundamental frequency, hence no oscillator "
-                            f"criterion: {exc}", comm=comm)
-            f1 = math.nan
-        if stability:
-            # A dense eigenvalue analysis: on large grids the longest part of the set-up.
-            cells = timestep.analysis_cells(body.element, body.cells)
-            signals.stage("set-up: the stability analysis")
-            PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} "
-                            "cells ...", comm=comm)
-            t_analysis = time.perf_counter()
-            dt_discrete, patch = timestep.discrete_limit(comm, body, soil, scheme)
-            PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f}"
-                            " s", comm=comm)
-        else:
-            dt_discrete, patch = math.nan, body.cells
-        steps = timestep.criteria(soil, body.height, f1, dt_discrete, h, S)
-        steps = {k: v for k, v in steps.items() if not math.isnan(v)}
-    return Limits(steps, timestep.governing(steps, scheme.drag), (), f1), patch
-
-
-def choose_dt(limits, given, safety) -> float:
-    """The step (s): ``given``, or ``safety`` times the governing limit rounded down to 3
-    significant digits: the limits come from iterative eigensolvers whose last digits vary
-    with the number of ranks, and the run should not."""
-    if given is not None:
-        return given
-    return _round_down(safety * limits.steps[limits.governing], 3)
-
-
 def check_dt(comm, limits, dt, soil, H, scheme, first_tv, allow_unstable) -> Limits:
     """The limits with the ones ``dt`` (s) exceeds and the inertia regime (printed);
     InputError for a step far beyond the stability limit (unless ``allow_unstable``), a
@@ -178,8 +131,3 @@ def step_counts(refs, dt, Tv_end, Tv_report) -> tuple:
                  for tv in sorted(set(reporting.ISOCHRONES) | set(Tv_report))
                  if tv <= Tv_end + 1e-12}
     return nsteps, report_steps, iso_steps
-
-
-def _round_down(x: float, digits: int) -> float:
-    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return math.floor(x / scale) * scale

@@ -185,7 +185,7 @@ def _same_scheme(run, choices: dict) -> bool:
     """Whether ``run`` was measured with the scheme that the scheme options ``choices``
     ({name: value or 'auto'}) resolve to on its cell type (data measured before a default
     changed are not; a run that did not record its scheme is taken as it is)."""
-    from .explicit.scheme import AUTO_KEYS, Scheme
+    from ..stepping.scheme import AUTO_KEYS, Scheme
 
     scheme = Scheme.resolve(run["element"], choices)
     return all(run.get(k, getattr(scheme, k)) == getattr(scheme, k) for k in AUTO_KEYS)

@@ -1,10 +1,8 @@
-"""Dynamics (issue 30): ``-mpm_analysis dynamic``, the body shaken at its base or loaded
+"""Dynamics: ``-mpm_analysis dynamic``, the body shaken at its base or loaded
 suddenly, stepped in time.
 
 - ``driver``: the analysis: the options read once (``Request``), the plan (motion, natural
   frequencies, Rayleigh damping), the time loop with its records and checkpoints;
-- ``column``: the one-phase shaken body (rigid or compliant base, Rayleigh damping,
-  periodic sides, a sudden load), stepped by central differences;
 - ``saturated``: two phases under a sudden load or shaken on a rigid base: the explicit
   v-w step without dampers, with the saturated column's references;
 - ``histories``: what a run records (row means at depths, peaks with depth) and the
@@ -13,10 +11,10 @@ suddenly, stepped in time.
   XDMF series, the summary's ``dynamic`` block;
 - ``plots``: the figures.
 
-May import: consolidation, consolidation.implicit, consolidation.explicit, eigen, io,
+May import: consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
 references, model, common.
 
-The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line
 (solver/__main__.py). A module imports its own room and the rooms before it, never one after
 it (tests/test_rooms.py).

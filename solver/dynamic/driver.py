@@ -24,7 +24,7 @@ from petsc4py import PETSc
 
 from ..common import signals
 from ..common.errors import InputError, Interrupted, NumericalError, describe, entry
-from ..eigen.frequency import lowest
+from ..modal.frequency import lowest
 from ..io import checkpoint, output, provenance
 from ..io import records as record_files
 from ..model import scene
@@ -33,7 +33,7 @@ from ..model.scene import Body, Loading
 from ..model.soil import Ground
 from ..references import layered
 from . import histories, reporting
-from .column import ShakenBody, Shaking, rayleigh
+from ..stepping.onephase import ShakenBody, Shaking, rayleigh
 
 EIGEN_DOFS = 2000          # the dense Jacobi solve's largest problem here (about 30 s)
 MAX_STEPS = 5e7

@@ -21,9 +21,9 @@ import math
 import numpy as np
 
 from ..common import signals
-from ..consolidation import schedules
-from ..consolidation.explicit.scheme import Scheme
-from ..consolidation.explicit.twophase import TwoPhase, point_fields
+from ..stepping import timestep
+from ..stepping.scheme import Scheme
+from ..stepping.twophase import TwoPhase, point_fields
 from ..io import checkpoint
 from ..model import scene
 from ..model.scene import Loading
@@ -64,9 +64,9 @@ class SaturatedColumn:
         self.model = TwoPhase(self.grid, self.points, soil, plan.body, self.loading,
                               self.scheme)
         signals.stage("set-up: the critical time steps")
-        limits, _ = schedules.critical_steps(comm, plan.body, soil, self.scheme,
+        limits, _ = timestep.critical_steps(comm, plan.body, soil, self.scheme,
                                              self.grid.h, False, ("jacobi", 1e-15, 50))
-        stable = schedules.choose_dt(limits, None, SAFETY)
+        stable = timestep.choose_dt(limits, None, SAFETY)
         self.dt, self.every = sample_step(plan.record_dt, stable)
         self.lag = self.dt          # a sample is of the step's end
         self.mpi = comm.tompi4py()

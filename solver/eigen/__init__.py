@@ -1,13 +1,11 @@
-"""The eigenfrequency analysis, and the modal solvers both analyses use (the consolidation run
-takes f1 from ``frequency``, never the driver).
+"""The eigenfrequency analysis: the column's natural frequencies and mode shapes by the modal
+solvers (``solver.modal``), cross-checked and set beside their references.
 
-- ``driver``: the eigen analysis, run by the command line;
-- ``jacobi``: the generalized Jacobi eigensolver;
-- ``frequency``: SLEPc's generalized eigensolve and the fundamental frequency f1.
+- ``driver``: the eigen analysis, run by the command line.
 
-May import: io, references, model, common.
+May import: stepping, modal, run, io, references, model, common.
 
-The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line
 (solver/__main__.py). A module imports its own room and the rooms before it, never one after
 it (tests/test_rooms.py).

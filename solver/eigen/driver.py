@@ -1,7 +1,7 @@
 """Eigenfrequency analysis of the soil model (paper Section 4, Table 3, Figure 2).
 
 K phi = omega^2 M phi with the material-point K and consistent M, solved by our generalized
-Jacobi solver (:mod:`solver.eigen.jacobi`) and by SLEPc's Krylov-Schur, cross-checked (relative
+Jacobi solver (:mod:`solver.modal.jacobi`) and by SLEPc's Krylov-Schur, cross-checked (relative
 eigenvalue difference, modal assurance criterion), and set beside the 1D rod and the plain FE
 model of the same mesh (points at Gauss points). A column of layers (``-mpm_layers``) gives
 each point its layer's density and elasticity; its rod is the layered one of
@@ -25,8 +25,8 @@ from ..io.output import Outputs
 from ..model.scene import Body, build, destroy
 from ..model.soil import Ground
 from ..references import analytic, layered
-from . import jacobi
-from .frequency import frequencies, slepc_solve
+from ..modal import jacobi
+from ..modal.frequency import frequencies, slepc_solve
 
 # Table 3 of the paper (Hz): the MP models of a 1 x 10 grid over the 0.1 m x 1 m column.
 PAPER_TABLE3 = {"q4": [16.92, 51.27, 87.24, 126.03, 168.95],

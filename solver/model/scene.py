@@ -6,8 +6,8 @@ fixed displacement components on its sides (``-mpm_bc_*``) and its materials (th
 ``-mpm_E``, ``-mpm_nu``, the solid and liquid densities and the porosity, per layer of
 ``-mpm_layers`` in the eigen model). The analyses
 (:mod:`solver.eigen.driver`, :mod:`solver.consolidation.driver`) and the modules that serve them
-(:mod:`solver.consolidation.explicit.timestep`,
-:mod:`solver.consolidation.explicit.twophase`, the scripts) build it here, so that they
+(:mod:`solver.stepping.timestep`,
+:mod:`solver.stepping.twophase`, the scripts) build it here, so that they
 build the same thing and none of them depends on another analysis.
 
 Lifetimes: whatever a function here returns belongs to the caller, which destroys it

@@ -8,10 +8,10 @@ node lattice in each direction. Local node ``a`` sits at lattice offset
 The formulas are written once, as functions of one point's natural coordinates (:func:`q4`,
 :func:`q8`, :func:`q9`) that serve twice: as plain Python over NumPy arrays of points
 (:func:`evaluate`, :func:`lagrange1d`: one IEEE operation per ufunc), and compiled by numba
-into the explicit step's kernels (solver.consolidation.explicit.kernels), at one point, with
+into the explicit step's kernels (solver.stepping.kernels), at one point, with
 the kernels' options (``KERNEL_OPTIONS``: their ``a b + c`` may become one fused
 multiply-add). numba's disk cache of the kernels does not notice edits of this file: after
-changing a formula, delete ``solver/consolidation/explicit/__pycache__/kernels*.nb*``
+changing a formula, delete ``solver/stepping/__pycache__/kernels*.nb*``
 (tests/test_shapes.py compares the two).
 """
 
@@ -22,7 +22,7 @@ from numba.extending import register_jitable
 
 ORDER = {"q4": 1, "q8": 2, "q9": 2}
 
-# The step kernels' compiler options (solver.consolidation.explicit.kernels: division by
+# The step kernels' compiler options (solver.stepping.kernels: division by
 # zero gives inf or NaN, and only a b + c -> fma is allowed), with which they compile the
 # functions below.
 KERNEL_OPTIONS = dict(error_model="numpy", fastmath={"contract"})

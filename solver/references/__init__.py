@@ -15,7 +15,7 @@ never builds on them (a reference the model were made of would check nothing).
 
 May import: model, common.
 
-The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line
 (solver/__main__.py). A module imports its own room and the rooms before it, never one after
 it (tests/test_rooms.py).

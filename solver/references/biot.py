@@ -1,7 +1,7 @@
 """Quasi-static plane-strain Biot consolidation by u-p finite elements: the FE reference.
 
 An implicit solution of the body that the two-phase MPM
-(solver/consolidation/explicit/twophase.py) models, for scenes without a closed form
+(solver/stepping/twophase.py) models, for scenes without a closed form
 (drainage through the sides, a load on part of the top, layers). SI units, per metre out of
 plane; effective stress tension positive, pore pressure p compression positive, total stress
 sigma = sigma' - m p:

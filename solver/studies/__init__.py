@@ -3,9 +3,10 @@ solver`` process, and where their results go.
 
 - ``study``: batches of solver runs for the scripts, and their destinations.
 
-May import: dynamic, consolidation, consolidation.implicit, consolidation.explicit, eigen, io, references, model, common.
+May import: dynamic, consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
+references, model, common.
 
-The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line
 (solver/__main__.py). A module imports its own room and the rooms before it, never one after
 it (tests/test_rooms.py).

@@ -6,9 +6,9 @@ knows nothing of the run around it (the plan, the reporting).
 - ``quasistatic``: the undrained start, TR-BDF2 on graded steps, MUMPS LU, the points' fields;
 - ``choice``: ``-mpm_scheme auto`` (which scheme, and why) and the options of each scheme.
 
-May import: consolidation.explicit, eigen, io, references, model, common.
+May import: eigen, stepping, modal, run, io, references, model, common.
 
-The rooms, lowest first: common, model, references, io, eigen, consolidation.explicit,
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line
 (solver/__main__.py). A module imports its own room and the rooms before it, never one after
 it (tests/test_rooms.py).

@@ -9,7 +9,7 @@ hardly with time. ``auto`` takes the explicit step only where
 
 - an explicit-only option is given on the command line (the user asked for the step), or
 - it is estimated both within TOLERANCE of q of the quasi-static answer at the first report
-  (its own inertia estimate there, :func:`solver.consolidation.explicit.inertia.regime`:
+  (its own inertia estimate there, :func:`solver.stepping.inertia.regime`:
   the wave and the drag lag under its damping and mass scaling) and cheaper than the
   implicit scheme,
 
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 from ...common.errors import InputError
 from ...io.options import EXPLICIT_ONLY, IMPLICIT_ONLY
-from ..explicit import inertia
+from ...stepping import inertia
 from .quasistatic import graded_steps, named_times
 
 TOLERANCE = inertia.TOLERANCE

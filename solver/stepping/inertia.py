@@ -66,8 +66,8 @@ import math
 
 import numpy as np
 
-from ...common.errors import InputError
-from ...eigen import frequency
+from ..common.errors import InputError
+from ..modal import frequency
 from . import timestep
 
 TOLERANCE = 0.002   # inertia error that -mpm_mass_scaling auto allows (fraction of q)

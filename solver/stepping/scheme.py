@@ -5,7 +5,7 @@ The options ``-mpm_kinematics``, ``-mpm_lumping``, ``-mpm_liquid_basis`` and
 cell type (docs/studies.md, "Quadratic cells"); ``-mpm_flip`` ``auto``: pure FLIP, but
 where the cell type and projection need a little PIC to stay stable (:func:`auto_flip`);
 ``-mpm_mass_scaling`` may say ``auto``: the largest factor whose inertia error stays within
-tolerance (:mod:`solver.consolidation.explicit.inertia`). A
+tolerance (:mod:`solver.stepping.inertia`). A
 :class:`Scheme` holds them resolved, with the drag treatment, the damping terms and the
 FLIP fraction: what the step, the stability analysis and the summary read.
 """

@@ -17,13 +17,21 @@ the drag limit as S.
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import time
+
 import numpy as np
 from petsc4py import PETSc
 
-from ...model import assembly, shapes
-from ...model.grid import Grid
-from ...model.points import place
-from ...model.soil import Ground
+from ..common import signals
+from ..common.errors import NotConverged, NumericalError
+from ..modal import frequency
+
+from ..model import assembly, shapes
+from ..model.grid import Grid
+from ..model.points import place
+from ..model.soil import Ground
 
 # Dense stability analysis of the whole grid up to this many unknowns, else on a patch: the
 # largest of the paper's scenes (M2-Q8/Q9, M3-Q4: 1640) and no more. Its cost grows as the
@@ -408,3 +416,67 @@ def stability_limits(limits: dict, drag: str) -> dict:
 def governing(limits: dict, drag: str) -> str:
     """The criterion that sets dt: the smallest, the drag limit only with explicit drag."""
     return min(applicable(limits, drag), key=limits.get)
+
+
+@dataclasses.dataclass(frozen=True)
+class Limits:
+    """The critical time steps (s) by criterion, the one that governs dt, those dt
+    exceeds, f1 (Hz) and the inertia regime
+    (:func:`solver.stepping.inertia.regime`)."""
+
+    steps: dict
+    governing: str
+    exceeded: tuple
+    f1: float = math.nan
+    regime: dict = dataclasses.field(default_factory=dict)
+    warning: str = ""
+
+
+def critical_steps(comm, body, soil, scheme, h, stability, f1_solver) -> tuple:
+    """(the critical time steps as :class:`Limits`, f1 and the governing one set, and the
+    patch of the stability analysis), in the log stage "Critical time steps"; ``h`` the
+    cell sizes (m); ``stability``: run the stability analysis; ``f1_solver`` (solver,
+    tolerance, sweeps) the arguments of :func:`frequency.fundamental_frequency`."""
+    S = scheme.mass_scaling
+    with PETSc.Log.Stage("Critical time steps"):
+        signals.stage("set-up: the fundamental frequency f1")
+        try:
+            f1 = frequency.fundamental_frequency(comm, body, soil, *f1_solver)
+        except NotConverged:
+            raise                    # a solver the options chose (-f1_eps_*) that failed
+        except NumericalError as exc:
+            # f1 only feeds the spring-mass criterion, which does not bound stability (see
+            # docs/studies.md); a singular consistent mass (1 point per Q4 cell) is no
+            # reason to refuse the run, whose lumped masses are positive.
+            PETSc.Sys.Print(f"Note: no fundamental frequency, hence no oscillator "
+                            f"criterion: {exc}", comm=comm)
+            f1 = math.nan
+        if stability:
+            # A dense eigenvalue analysis: on large grids the longest part of the set-up.
+            cells = analysis_cells(body.element, body.cells)
+            signals.stage("set-up: the stability analysis")
+            PETSc.Sys.Print(f"Stability analysis of the step on {cells[0]} x {cells[1]} "
+                            "cells ...", comm=comm)
+            t_analysis = time.perf_counter()
+            dt_discrete, patch = discrete_limit(comm, body, soil, scheme)
+            PETSc.Sys.Print(f"Stability analysis took {time.perf_counter() - t_analysis:.1f}"
+                            " s", comm=comm)
+        else:
+            dt_discrete, patch = math.nan, body.cells
+        steps = criteria(soil, body.height, f1, dt_discrete, h, S)
+        steps = {k: v for k, v in steps.items() if not math.isnan(v)}
+    return Limits(steps, governing(steps, scheme.drag), (), f1), patch
+
+
+def choose_dt(limits, given, safety) -> float:
+    """The step (s): ``given``, or ``safety`` times the governing limit rounded down to 3
+    significant digits: the limits come from iterative eigensolvers whose last digits vary
+    with the number of ranks, and the run should not."""
+    if given is not None:
+        return given
+    return _round_down(safety * limits.steps[limits.governing], 3)
+
+
+def _round_down(x: float, digits: int) -> float:
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return math.floor(x / scale) * scale

@@ -1,6 +1,6 @@
 """Compiled kernels of the explicit two-phase step (numba, nopython, cached on disk).
 
-:mod:`solver.consolidation.explicit.twophase` keeps the state and the PETSc objects; these
+:mod:`solver.stepping.twophase` keeps the state and the PETSc objects; these
 functions do the work, each in one pass over the points or nodes: points to grid, the nodal
 update, grid to points (with the pressure projection) and the migration test. The formulas
 are those of the twophase module docstring and docs/method.md;
@@ -32,7 +32,7 @@ Arguments, all kept between steps (no per-step temporaries):
   drained sides on the mixture and on the liquid, x and y each).
 
 Compilation: ``cache=True`` stores the machine code under
-``solver/consolidation/explicit/__pycache__`` (or ``NUMBA_CACHE_DIR``), so only the first
+``solver/stepping/__pycache__`` (or ``NUMBA_CACHE_DIR``), so only the first
 run on a machine compiles; :func:`warm_up` compiles or loads the kernels of a cell type at
 model set-up, inside the ``MPMCompile`` log event, so that the step's own events never
 include it. ``error_model='numpy'``: a division by zero gives inf or NaN as NumPy does (the
@@ -50,7 +50,7 @@ from numba import carray, njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
-from ...model import shapes
+from ..model import shapes
 
 _jit = njit(cache=True, **shapes.KERNEL_OPTIONS)
 

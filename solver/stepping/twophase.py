@@ -32,7 +32,7 @@ One step, with every nodal quantity lumped (a diagonal):
 Porosity, volumes and masses stay at their initial values (small strain: the paper neglects
 spatial variation of density and porosity, and the analytic references are linear).
 
-Scheme options (:class:`solver.consolidation.explicit.scheme.Scheme`, docs/method.md): shape
+Scheme options (:class:`solver.stepping.scheme.Scheme`, docs/method.md): shape
 functions at the points' initial positions x0 (small kinematics) or current ones (large);
 pore-pressure increments kept per point or projected through the nodes (lumped L2 projection
 sum w V dp / S, interpolated back at x0 or at the new positions), or onto the corner nodes'
@@ -43,7 +43,7 @@ velocity transfers and the relative motion in the storage equation, dp = -(K_l /
 v_s + n div_hat(v_l - v_s)] dt. Lumping: row sums (w = N) or HRZ (w = N^2 / sum N^2).
 
 Performance (docs/performance.md): the work is done by the compiled kernels of
-:mod:`solver.consolidation.explicit.kernels` (numba), one pass over the points per transfer,
+:mod:`solver.stepping.kernels` (numba), one pass over the points per transfer,
 computing each point's shape functions where they are needed (cheaper than storing them:
 memory traffic); this class keeps the state, the PETSc objects and the kernels' flat arrays,
 all made once (the point-field addresses again after a migration or resize). One kernel call
@@ -61,10 +61,10 @@ import time
 import numpy as np
 from petsc4py import PETSc
 
-from ...common.clock import log_event
-from ...common.errors import NumericalError
-from ...model import shapes
-from ...model.scene import top_forces, water_forces
+from ..common.clock import log_event
+from ..common.errors import NumericalError
+from ..model import shapes
+from ..model.scene import top_forces, water_forces
 from . import kernels
 from .kernels import NB, NF, NG, NGL, NLS
 from .scheme import Scheme
@@ -104,7 +104,7 @@ def kernel_variant(element: str, scheme, layered: bool = False) -> tuple:
 def compile_kernels(element: str, scheme, layered: bool = False) -> dict:
     """Compile (first run on a machine) or load from the disk cache the step's kernels for
     a cell type, scheme and material, once per process, timed by the MPMCompile log event;
-    returns :func:`solver.consolidation.explicit.kernels.warm_up`'s record (seconds,
+    returns :func:`solver.stepping.kernels.warm_up`'s record (seconds,
     compiled, loaded)."""
     with log_event("MPMCompile"):
         return kernels.warm_up(*kernel_variant(element, scheme, layered))

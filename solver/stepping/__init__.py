@@ -1,0 +1,20 @@
+"""The engines that step a body in time, which the consolidation and the dynamic analyses both
+take: the explicit two-phase v-w step and what sizes it, and the one-phase nodal step. They
+know nothing of the run around them (the plan, the loop, the reporting).
+
+- ``twophase``: the explicit single-point two-phase (v-w) step; ``python -m
+  solver.stepping.twophase`` compiles its kernels;
+- ``kernels``: its compiled loops (numba, cached in this folder's __pycache__);
+- ``scheme``: the step's Scheme, ``auto`` resolved;
+- ``timestep``: critical time steps, and the step they allow;
+- ``inertia``: the inertia regime and mass scaling;
+- ``onephase``: one phase on the nodes: the shaken body (the eigen model's K, lumped M,
+  Rayleigh damping), a rigid or compliant base, periodic or absorbing sides.
+
+May import: modal, run, io, references, model, common.
+
+The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
+consolidation.implicit, consolidation, dynamic, studies; then the command line
+(solver/__main__.py). A module imports its own room and the rooms before it, never one after
+it (tests/test_rooms.py).
+"""
