@@ -5,10 +5,11 @@
     .venv/bin/python scripts/benchmark --quick    # up to 1e5 points
     .venv/bin/python scripts/benchmark --sizes 2e5,1e6 --elements q4 --ranks 1,2
     .venv/bin/python scripts/benchmark --paper    # also time scripts/reproduce-paper
-    .venv/bin/python scripts/benchmark --footing  # the implicit scheme's footing, 1e5 points
-                                                  # (scripts/footing_benchmark.py)
-    .venv/bin/python scripts/benchmark --dynamic  # site response: 30 m, 1 x 300, 20 s, one
-                                                  # core (scripts/site_benchmark.py)
+
+The other benchmarks are commands of their own: scripts/footing-benchmark (the implicit
+scheme's footing of 1e5 points), scripts/site-benchmark (the site response of
+cases/dynamic-layers.opts on one core), scripts/series-benchmark (the point-field series'
+outputs) and scripts/step-benchmark (one column, which this command runs for each size).
 
 Prints and writes benchmark.json, benchmark.txt and benchmark.png into
 output/studies/benchmark/ (``--publish``: docs/results/, the tracked copy
@@ -17,13 +18,13 @@ PREFIX.json, .txt, .png):
 - the compilation of the step's kernels (numba): seconds and kernels compiled by a first
   run (an empty cache, ``NUMBA_CACHE_DIR`` pointed at a new folder) and by a second run of
   the same model (it loads them: nothing compiled);
-- the explicit two-phase step (``TwoPhase.step`` + ``migrate_if_needed``, as the time loop
-  calls them) in ns per material point per step, for Q4 (2 x 2 points per cell) and Q9
-  (3 x 3) at about 1e3, 1e4, 1e5, 2e5 and 1e6 points, on 1 and 2 ranks, with the 2-rank
-  speedup and parallel efficiency; the best of ``--repeats`` timed runs, wall time and,
-  beside it, the CPU time of the slowest rank (less disturbed by other jobs; the JSON has
-  the medians); and the ratio of the previous NumPy step's CPU time to this one's
-  (``--baseline``, default docs/results/benchmark-numpy.json: that step's figures);
+- the explicit two-phase step (the step and the points' migration, as the run calls them)
+  in ns per material point per step, for Q4 (2 x 2 points per cell) and Q9 (3 x 3) at about
+  1e3, 1e4, 1e5, 2e5 and 1e6 points, on 1 and 2 ranks, with the 2-rank speedup and parallel
+  efficiency; the best of ``--repeats`` timed runs, wall time and, beside it, the CPU time
+  of the slowest rank (less disturbed by other jobs; the JSON has the medians); and the
+  ratio of the previous NumPy step's CPU time to this one's (``--baseline``, default
+  docs/results/benchmark-numpy.json: that step's figures);
 - the time per step of the paper's smallest and largest consolidation scenes (M1-Q4 with
   40 points, M3-Q4 with 640 points), which is per-step overhead, not per-point work;
 - the peak resident memory (ru_maxrss) at the largest size, per material point, in total and
@@ -33,15 +34,12 @@ PREFIX.json, .txt, .png):
 - the Jacobi eigen solver (``scripts/eigen-study --benchmark``) and the whole-paper
   reproduction time (``scripts/reproduce-paper``, with ``--paper``) when those scripts exist.
 
-The models are built as ``consolidation.driver.run`` builds them (``scene.two_phase_body``, then
-TwoPhase) for the soil column of the paper (Table 2 soil, q = 10 kPa, 0.1 m x 1 m), with
-square cells, about ten times as many up as across, chosen to give the point count. The time
-step is fixed (1e-6 s, or a quarter of the undrained wave's transit time across a node spacing
-when that is smaller), not the CLI's critical time step, whose eigen analysis is dense.
-
-Each measurement runs in its own process (``mpirun -n R`` of this script in worker mode), so
-that its peak memory is its own. Timings on a shared machine are noisy: the load average is
-recorded before and after, and the best of several repeats is the figure that compares.
+Each size is the soil column of the paper (Table 2 soil, q = 10 kPa) with square cells,
+about ten times as many up as across, chosen to give the point count, measured by
+``mpirun -n R scripts/step-benchmark`` in its own process (its docstring says how the model
+is built and stepped), so that its peak memory is its own. Timings on a shared machine are
+noisy: the load average is recorded before and after, and the best of several repeats is the
+figure that compares.
 """
 
 from __future__ import annotations
@@ -50,28 +48,24 @@ import argparse
 import json
 import math
 import os
-import platform
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, str(REPO))
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
-from solver.studies import study  # noqa: E402  (standard library only)
+import step_benchmark  # noqa: E402  (scripts/step-benchmark: one column, timed)
 
-TAG = "BENCH "
+from solver.studies import study  # noqa: E402
+
 PAPER_SCENES = {"M1-Q4": (1, 10), "M3-Q4": (4, 40)}
-# Targets of the compiled step (issue 11), judged by CPU time (the wall time on a shared
+# Targets of the compiled step (docs/performance.md), judged by CPU time (the wall time on a shared
 # machine measures the other jobs too): ns per point per step on 1 core for Q4 (goal 60)
 # and Q9 from 2e5 points up; 2-rank parallel efficiency at 1e6 points (wall time); us per
 # step of the paper scenes; peak bytes per point at 1e6 points above the baseline.
@@ -81,160 +75,6 @@ TARGET_SCENE_US = {"M1-Q4": 10.0, "M3-Q4": 30.0}
 TARGET_BYTES = 300.0
 BASELINE = REPO / "docs" / "results" / "benchmark-numpy.json"
 
-
-
-
-# -- worker: one model, one rank count ------------------------------------------------------
-# The worker's functions import the solver inside: PETSc must first be initialised with the
-# worker's own arguments (petsc4py.init in worker).
-def maxrss() -> int:
-    """Peak resident memory of this process so far (bytes)."""
-    import resource
-
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024   # KiB on Linux
-
-
-def column_params(cfg: dict):
-    """The solver's options (a ``solver.io.options.Params``) of the column ``cfg`` describes:
-    consolidation under q = 10 kPa, cell ``element``, ``cells`` (NX, NY), ``size`` (m) and
-    ``ppc`` points per cell across, the rest as the solver's defaults (Table 2 soil)."""
-    from solver.io import options
-
-    return options.from_mapping(
-        {"analysis": "consolidation", "element": cfg["element"],
-         "cells": "%d,%d" % tuple(cfg["cells"]), "size": "%g,%g" % tuple(cfg["size"]),
-         "ppc": cfg["ppc"], "load": 1e4})
-
-
-def build_model(comm, p, scheme):
-    """Grid, points and TwoPhase model of ``p``, built as ``consolidation.driver.run`` builds them,
-    and the seconds (wall) that took. The caller destroys the three."""
-    from solver.stepping.twophase import TwoPhase, point_fields
-    from solver.model import scene
-    from solver.model.soil import Soil
-
-    t0 = time.perf_counter()
-    soil, body = Soil.from_options(p), scene.Body.from_options(p)
-    grid, points = scene.two_phase_body(comm, body, soil, point_fields(scheme))
-    model = TwoPhase(grid, points, soil, body, scene.Loading.from_options(p), scheme)
-    return grid, points, model, time.perf_counter() - t0
-
-
-def fixed_dt(p, grid) -> float:
-    """The benchmark's time step (s): 1e-6 s, or a quarter of the undrained wave's transit
-    time across a node spacing when that is smaller. Not the CLI's critical time step,
-    whose eigen analysis is dense: it would dominate the large models."""
-    from solver.model.soil import Soil
-
-    spacing = min(p.size[0] / p.cells[0], p.size[1] / p.cells[1]) / grid.order
-    return min(1e-6, 0.25 * spacing / Soil.from_options(p).wave_speeds()["c1"])
-
-
-def time_steps(model, p, dt: float, cfg: dict, mpi, flip: float = 1.0):
-    """Wall and CPU seconds of each of ``cfg['repeats']`` runs of ``cfg['steps']`` steps
-    (step + migrate_if_needed, as the time loop calls them), after ``cfg['warmup']``
-    untimed steps; both the slowest rank's. ``dt`` in s."""
-    from mpi4py import MPI
-
-    def run(nsteps):
-        for _ in range(nsteps):
-            model.step(dt, 1.0, p.damping, flip)
-            model.migrate_if_needed((0, 0))
-
-    run(cfg["warmup"])
-    times, cpu = [], []
-    for _ in range(cfg["repeats"]):
-        mpi.Barrier()
-        t, c = time.perf_counter(), time.process_time()
-        run(cfg["steps"])
-        # CPU time of the slowest rank: what the process itself used, which the other jobs
-        # on a shared machine disturb less than the wall time (MPI waits spin, so they count).
-        c = time.process_time() - c
-        mpi.Barrier()
-        times.append(mpi.allreduce(time.perf_counter() - t, op=MPI.MAX))
-        cpu.append(mpi.allreduce(c, op=MPI.MAX))
-    return times, cpu
-
-
-def time_reports(points, comm, p) -> list:
-    """Wall seconds (slowest rank) of two report times as the run has them: the profile
-    gathered on rank 0 (isochrones), the monitor and both references' L2 errors."""
-    from mpi4py import MPI
-
-    from solver.consolidation import reporting
-    from solver.consolidation.plan import References
-    from solver.model import scene
-    from solver.model.soil import Soil
-
-    mpi = comm.tompi4py()
-    refs = References.of(Soil.from_options(p), scene.Loading.from_options(p),
-                         scene.Body.from_options(p))
-    depths = reporting.Heights()
-    depths.refresh(points)                   # at the run's set-up
-    with points.fields("monitor") as mon:
-        mon[:] = 1.0
-    report_s = []
-    for _ in range(2):
-        mpi.Barrier()
-        t = time.perf_counter()
-        reporting.profile(points, comm)
-        reporting.report(0.1, 0.0, points, mpi, refs, p.size[1] / 2, depths)
-        mpi.Barrier()
-        report_s.append(mpi.allreduce(time.perf_counter() - t, op=MPI.MAX))
-    return report_s
-
-
-def all_finite(points, mpi) -> bool:
-    """Whether every point's pore pressure is finite on every rank (a step that blew up
-    would time other work)."""
-    import numpy as np
-    from mpi4py import MPI
-
-    with points.fields("p") as pp:
-        return mpi.allreduce(bool(np.isfinite(pp).all()), op=MPI.LAND)
-
-
-def worker(cfg: dict) -> None:
-    """Measure the model ``cfg`` describes on this process's ranks and print, on rank 0,
-    TAG and the figures as JSON (seconds, bytes) for :func:`launch` to read."""
-    import petsc4py
-
-    petsc4py.init([sys.argv[0]] + cfg.get("petsc_args", []))
-    from petsc4py import PETSc
-
-    from solver.stepping.scheme import Scheme
-    from solver.stepping.twophase import compile_kernels
-    from solver.model import scene
-    from solver.model.soil import Soil
-
-    comm = PETSc.COMM_WORLD
-    mpi = comm.tompi4py()
-    p = column_params(cfg)
-    scheme = Scheme.from_options(p, Soil.from_options(p), min(p.Tv_report))
-    # The compiled step (compiled on a machine's first run, else loaded from numba's disk
-    # cache) is, like the imports, a per-process constant: made before the baseline.
-    imported = maxrss()
-    compiled = compile_kernels(p.element, scheme)
-    base = maxrss()
-    grid, points, model, setup = build_model(comm, p, scheme)
-    dt = fixed_dt(p, grid)
-    times, cpu = time_steps(model, p, dt, cfg, mpi, scheme.flip)
-    finite = all_finite(points, mpi)
-    peak = mpi.gather(maxrss(), root=0)      # the step's, before the report's temporaries
-    report_s = time_reports(points, comm, p)
-    bases, imports = mpi.gather(base, root=0), mpi.gather(imported, root=0)
-    npoints = points.n_global          # collective: every rank
-    if comm.getRank() == 0:
-        out = dict(cfg, points=npoints, dt=dt, setup_s=setup, times_s=times, cpu_s=cpu,
-                   finite=finite, report_s=report_s, peak_rss_bytes=sum(peak),
-                   base_rss_bytes=sum(bases), peak_rss_per_rank=peak, ranks=comm.getSize(),
-                   import_rss_bytes=sum(imports),
-                   compile={k: compiled[k] for k in ("seconds", "compiled", "loaded")})
-        print(TAG + json.dumps(out), flush=True)
-    scene.destroy(model, points, grid)
-
-
-# -- driver -----------------------------------------------------------------------------------
 def cells_for(points: float, ppc: int):
     """Cells (NX, NY) of about ``points`` points, about ten times as many up as across
     (the column is then 0.1 m wide and about 1 m high, with square cells)."""
@@ -244,10 +84,11 @@ def cells_for(points: float, ppc: int):
 
 
 def launch(cfg: dict, ranks: int, timeout: float, env_extra=None):
-    """Run :func:`worker` on ``cfg`` with ``ranks`` ranks, at most ``timeout`` s: (its
-    figures, None), or (None, why not)."""
+    """Run scripts/step-benchmark on the column ``cfg`` with ``ranks`` ranks, at most
+    ``timeout`` s: (its figures, None), or (None, why not)."""
     env = dict(study.environment(), **(env_extra or {}))
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", json.dumps(cfg)]
+    cmd = [sys.executable, str(REPO / "scripts" / "step_benchmark.py"),
+           *step_benchmark.command(cfg)]
     if ranks > 1:
         mpirun = shutil.which("mpirun")
         if mpirun is None:
@@ -260,27 +101,10 @@ def launch(cfg: dict, ranks: int, timeout: float, env_extra=None):
     except subprocess.TimeoutExpired:
         return None, f"timed out after {timeout:.0f} s"
     for line in res.stdout.splitlines():
-        if line.startswith(TAG):
-            return json.loads(line[len(TAG):]), None
+        if line.startswith(step_benchmark.TAG):
+            return json.loads(line[len(step_benchmark.TAG):]), None
     tail = (res.stderr.strip().splitlines() or ["(no output)"])[-1]
     return None, f"exit {res.returncode}: {tail}"
-
-
-def loadavg():
-    try:
-        return [round(v, 2) for v in os.getloadavg()]
-    except OSError:
-        return None
-
-
-def cpu_model():
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def steps_for(points: int, budget: float) -> int:
@@ -290,24 +114,6 @@ def steps_for(points: int, budget: float) -> int:
 
 def fmt_ns(v):
     return "-" if v is None else f"{v:,.0f}"
-
-
-def run_external(name: str, args, timeout: float):
-    """Run scripts/``name`` with ``args``, at most ``timeout`` s: its status, command, wall
-    seconds and output."""
-    path = REPO / "scripts" / name
-    if not path.exists():
-        return {"status": "missing", "command": f"scripts/{name}"}
-    cmd = [sys.executable, str(path), *args]
-    t = time.perf_counter()
-    try:
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=REPO)
-    except subprocess.TimeoutExpired:
-        return {"status": f"timed out after {timeout:.0f} s", "command": " ".join(cmd[1:])}
-    wall = time.perf_counter() - t
-    return {"status": "ok" if res.returncode == 0 else f"exit {res.returncode}",
-            "command": "scripts/" + " ".join([name, *args]), "wall_seconds": wall,
-            "stdout": res.stdout, "stderr_tail": res.stderr[-2000:]}
 
 
 def load_baseline(path):
@@ -399,22 +205,10 @@ def targets(result):
     return marks
 
 
-class Transcript:
-    """The driver's report: each line printed as it comes and kept for benchmark.txt."""
-
-    def __init__(self):
-        self.lines = []
-
-    def __call__(self, text=""):
-        print(text, flush=True)
-        self.lines.append(text)
-
-
 def arguments(argv=None):
-    """The parser and the parsed command line (``--worker``: a worker's model)."""
+    """The parser and the parsed command line."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--quick", action="store_true", help="sizes up to 1e5 points only")
     ap.add_argument("--sizes",
                     help="comma-separated point counts (default 1e3,1e4,1e5,2e5,1e6)")
@@ -448,24 +242,10 @@ def plan(args):
     return sizes, elements, ranks
 
 
-def machine_info() -> dict:
-    """The machine, the versions and the load average before the measurements."""
-    machine = {"nproc": os.cpu_count(), "cpu": cpu_model(), "python": platform.python_version(),
-               "platform": platform.platform(), "load_before": loadavg(),
-               "date": time.strftime("%Y-%m-%d %H:%M:%S")}
-    try:
-        import numpy
-        import petsc4py
-        machine.update(numpy=numpy.__version__, petsc4py=petsc4py.__version__)
-    except ImportError:
-        pass
-    return machine
-
-
 def start(args, say):
     """The results to fill (machine, command) and the baseline to compare with (or None),
     both announced."""
-    machine = machine_info()
+    machine = study.machine()
     say(f"Machine: {machine['nproc']} cores, {machine['cpu']}; load average "
         f"{machine['load_before']} at the start ({machine['date']})")
     result = {"machine": machine, "command": " ".join([Path(sys.argv[0]).name, *sys.argv[1:]]),
@@ -478,7 +258,8 @@ def start(args, say):
 
 
 def step_figures(res: dict, steps: int, npts: int) -> dict:
-    """A worker's figures per point and step (ns) and the time of a report time in steps."""
+    """scripts/step-benchmark's figures ``res`` per point and step (ns), and the time of a
+    report time in steps."""
     t = sorted(res["times_s"])
     return {"ns_per_point_step": t[0] / steps / npts * 1e9,
             "ns_per_point_step_median": t[len(t) // 2] / steps / npts * 1e9,
@@ -534,8 +315,9 @@ def measure_step_row(element: str, size: float, ranks, args, baseline, say) -> d
 
 def measure_steps(args, sizes, elements, ranks, baseline, say) -> list:
     """The explicit step, ns per point per step, for every cell type and size: the rows."""
-    say("\nExplicit two-phase step (step + migrate_if_needed), ns per material point per "
-        f"step: wall time, best of {args.repeats} (CPU time of the slowest rank, best)")
+    say("\nExplicit two-phase step (the step and the points' migration), ns per material "
+        f"point per step: wall time, best of {args.repeats} (CPU time of the slowest rank, "
+        "best)")
     say(f"{'cell':<5}{'points':>10}{'steps':>7}" + "".join(f"{f'{r} rank(s)':>22}" for r in ranks)
         + (f"{'speedup':>9}{'effic.':>8}{'ns*core':>9}" if 2 in ranks and 1 in ranks else "")
         + ("".join(f"{f'x before ({r})':>15}" for r in ranks) if baseline else ""))
@@ -653,7 +435,7 @@ def measure_jacobi(args, say) -> dict:
     if args.no_jacobi:
         say("  skipped (--no-jacobi)")
         return {"status": "skipped (--no-jacobi)"}
-    jacobi = run_external("eigen-study", ["--benchmark"], args.timeout)
+    jacobi = study.run_script("eigen-study", ["--benchmark"], args.timeout)
     if jacobi["status"] == "missing":
         say("  scripts/eigen-study is missing: no Jacobi figures")
     else:
@@ -669,7 +451,7 @@ def measure_paper(args, say) -> dict:
     if not args.paper:
         say("  skipped (give --paper to time it)")
         return {"status": "skipped (no --paper)"}
-    paper = run_external("reproduce-paper", args.paper_args.split(),
+    paper = study.run_script("reproduce-paper", args.paper_args.split(),
                          max(args.timeout, 6 * 3600))
     if paper["status"] == "missing":
         say("  scripts/reproduce-paper is missing: skipped")
@@ -680,34 +462,17 @@ def measure_paper(args, say) -> dict:
 
 def write_results(result, lines, prefix: str) -> None:
     """PREFIX.json (the results), .txt (the report) and .png (the chart)."""
-    from solver.io import output
-
-    output.write_json(prefix + ".json", result)
-    output.write_text(prefix + ".txt", "\n".join(lines))
+    study.write_results(prefix, result, lines)
     _plot(result, prefix + ".png")
     print(f"\nWrote {prefix}.json, .txt, .png")
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if "--footing" in argv:          # the implicit scheme's footing (scripts/footing-benchmark)
-        sys.path.insert(0, str(REPO / "scripts"))
-        import footing_benchmark
-
-        return footing_benchmark.main([a for a in argv if a != "--footing"])
-    if "--dynamic" in argv:          # site response (scripts/site-benchmark)
-        sys.path.insert(0, str(REPO / "scripts"))
-        import site_benchmark
-
-        return site_benchmark.main([a for a in argv if a != "--dynamic"])
     ap, args = arguments(argv)
-    if args.worker:
-        worker(json.loads(args.worker))
-        return 0
     if args.output is None:
         args.output = os.path.join(study.destination(ap, args), "benchmark")
     sizes, elements, ranks = plan(args)
-    say = Transcript()
+    say = study.Transcript()
     result, baseline = start(args, say)
     if not args.no_compile:
         result["compile"] = measure_compile(args, say)
@@ -719,7 +484,7 @@ def main(argv=None) -> int:
     result["targets"] = judge_targets(result, say)
     result["jacobi"] = measure_jacobi(args, say)
     result["paper"] = measure_paper(args, say)
-    result["machine"]["load_after"] = loadavg()
+    result["machine"]["load_after"] = study.load_average()
     say(f"\nLoad average at the end: {result['machine']['load_after']}")
     if args.output:
         write_results(result, say.lines, str(Path(args.output)))

@@ -19,31 +19,35 @@ convergence/ (or, with --publish, docs/results/, the tracked copy the docs show)
   solver/data/work_precision.json, the file the solver ships; --publish takes the default
   scene and the whole study only).
 Runs go to output/convergence/ and are reused by a re-run (a killed study continues).
+
+    scripts/convergence-study --check        # do the shipped data still hold? (about 5 s)
+
+makes the cheapest runs of solver/data/work_precision.json again, afresh, and compares: each
+must give its stored row (all but the wall time), and the file must be what this command
+makes of its rows (orders, measure, scene); exit 1, naming each difference, when not.
 """
 
 import argparse
+import json
 import math
 import os
 import sys
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 import numpy as np  # noqa: E402
 
+from solver.common.errors import InputError  # noqa: E402
 from solver.consolidation import workprecision  # noqa: E402
 from solver.io import output  # noqa: E402
 from solver.studies import study  # noqa: E402
 
-DEFAULT_OUT = os.path.join(study.STUDIES, "convergence")
 DEFAULT_SCENE = "cases/consolidation-m1-q4.opts"
 PPC = {"q4": 2, "q8": 3, "q9": 3}
 SCHEME = ("kinematics", "pressure_projection", "liquid_basis", "lumping")
@@ -144,19 +148,21 @@ def arguments(argv=None):
                          "machine's, %(default)s)")
     ap.add_argument("--quick", action="store_true",
                     help="a small subset (minutes instead of about an hour)")
-    ap.add_argument("--out", default=None,
-                    help="folder for the charts, convergence.md and convergence.csv "
-                         f"(default {os.path.relpath(DEFAULT_OUT, ROOT)})")
-    ap.add_argument("--publish", action="store_true",
-                    help="write the tracked results: the charts and tables into "
-                         f"{os.path.relpath(study.PUBLISHED, ROOT)}, the data into "
-                         f"{os.path.relpath(workprecision.DEFAULT, ROOT)} (default scene, "
-                         "whole study)")
+    study.add_destination(ap, "convergence", "the charts, convergence.md and convergence.csv",
+                          published=f"the data into "
+                                    f"{os.path.relpath(workprecision.DEFAULT, ROOT)} "
+                                    "(the default scene's whole study only)")
     ap.add_argument("--runs", default=os.path.join(ROOT, "output", "convergence"),
                     help="folder for the runs' own output, reused by a re-run (default "
                          "output/convergence)")
     ap.add_argument("--data", default=None,
-                    help="work-precision file to write (default OUT/work_precision.json)")
+                    help="work-precision file to write (default OUT/work_precision.json); "
+                         "with --check, the file to check (default "
+                         f"{os.path.relpath(workprecision.DEFAULT, ROOT)})")
+    ap.add_argument("--check", action="store_true",
+                    help="run the cheapest runs of the stored work-precision data again "
+                         "(afresh, about 5 s) and compare: exit 1 when the data no longer "
+                         "hold (the stored file is not what this command makes of its runs)")
     ap.add_argument("--formats", default="png",
                     help="comma-separated chart formats: png, pdf, svg (PNG always; "
                          "default png)")
@@ -172,8 +178,11 @@ def destinations(ap, args):
     if args.publish and (args.quick or not default or args.out or args.data):
         ap.error("--publish writes the tracked results of the whole study of "
                  f"{DEFAULT_SCENE}: leave out --quick, -options_file, --out and --data")
-    args.out = args.out or (study.PUBLISHED if args.publish else DEFAULT_OUT)
-    args.data = args.data or (workprecision.DEFAULT if args.publish
+    if args.check and (args.publish or args.quick or not default):
+        ap.error("--check compares the stored data of the whole study of "
+                 f"{DEFAULT_SCENE}: leave out --publish, --quick and -options_file")
+    args.out = study.destination(ap, args)
+    args.data = args.data or (workprecision.DEFAULT if args.publish or args.check
                               else os.path.join(args.out, "work_precision.json"))
     try:
         args.formats = output.figure_formats("png," + args.formats)
@@ -219,9 +228,9 @@ def row_of(run) -> dict:
            "cells": s["cells"], "ppc": s["ppc"], "dt_safety": safety, "ranks": run.ranks,
            "n_points": s["n_points"], "steps": s["steps"], "dt": s["dt"],
            "cost": float(s["n_points"]) * s["steps"],
-           "wall_seconds": s["wall_seconds"], "stable": bool(s["stable"]),
+           "wall_seconds": study.wall_seconds(s), "stable": study.stable(s),
            **{k: s[k] for k in SCHEME}}
-    if s["stable"]:
+    if row["stable"]:
         row.update(errors(s))
         mon, deg = s["monitor"], s["consolidation_degree"]
         # Signed compressible-water errors at every report time: the monitor's (%), the
@@ -258,25 +267,132 @@ def fit_orders(rows) -> dict:
     return {e: {k: order(refinement(rows, e), k) for k in ERRORS} for e in PPC}
 
 
-def write_data(path, runs, rows, orders, source) -> None:
-    """The work-precision data -mpm_target_error reads: the scene (of the first stable run),
-    the error measure, the orders and the runs with the scene's own scheme (the defaults),
-    among which it picks."""
-    scene = None
+def scene_of(runs):
+    """The scene signature (``summary["scene"]``) of the first stable run with the
+    defaults' scheme (a variant's differs in its scheme options), or None."""
     for run in runs:
-        if run.result["stable"]:
-            scene = scene or run.result["scene"]
-    output.write_json(path, {"scene": scene, "source": source,
-                             "measure": workprecision.__doc__.split("The error measure")
-                             [1].split("\n\n")[0].strip(),
-                             "judged": list(workprecision.JUDGED), "Tv": list(REPORT_TV),
-                             "orders": orders,
-                             "runs": [r for r in rows if not r["variant"]]})
+        if not getattr(run, "variant", "") and run.result and study.stable(run.result):
+            return run.result["scene"]
+    return None
+
+
+def work_precision(scene, rows, orders, source) -> dict:
+    """The work-precision data -mpm_target_error reads (``--publish``:
+    solver/data/work_precision.json): the scene signature its runs share, the error measure
+    and what it judges, the report times, the orders and the rows of the runs with the
+    scene's own scheme (the defaults), among which it picks."""
+    return {"scene": scene, "source": source,
+            "measure": workprecision.__doc__.split("The error measure")[1].split("\n\n")[0]
+            .strip(),
+            "judged": list(workprecision.JUDGED), "Tv": list(REPORT_TV), "orders": orders,
+            "runs": [r for r in rows if not r["variant"]]}
+
+
+def write_data(path, runs, rows, orders, source) -> None:
+    """:func:`work_precision` of the study, into ``path``."""
+    output.write_json(path, work_precision(scene_of(runs), rows, orders, source))
+
+
+# --check: the stored data's cheapest runs, made again (about 1.5 s each): Q4 with one point
+# per cell and Q9 with the corner projection.
+CHECKED = ("q4-1x10-ppc1-dt0.5", "q9-1x5-ppc3-dt0.5")
+NOT_COMPARED = ("wall_seconds",)       # the machine's, not the method's
+
+
+def _same(a, b, where, out) -> None:
+    """Append to ``out`` where ``a`` (stored) and ``b`` (made now) differ: numbers within
+    1e-6 relative (another CPU's SIMD rounds the last digits otherwise), all else equal."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in sorted(set(a) | set(b)):
+            if key not in a or key not in b:
+                out.append(f"{where}{key}: {'missing' if key not in a else 'not made'} "
+                           "in the stored file")
+            else:
+                _same(a[key], b[key], f"{where}{key}.", out)
+    elif isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)) and len(a) == len(b):
+        for k, (x, y) in enumerate(zip(a, b)):
+            _same(x, y, f"{where}{k}.", out)
+    elif isinstance(a, float) and isinstance(b, (int, float)) and not isinstance(b, bool):
+        if not (math.isclose(a, b, rel_tol=1e-6, abs_tol=1e-12)
+                or math.isnan(a) and math.isnan(b)):
+            out.append(f"{where[:-1]}: stored {a!r}, made now {b!r}")
+    elif a != b:
+        out.append(f"{where[:-1]}: stored {a!r}, made now {b!r}")
+
+
+def differences(stored: dict, runs) -> list:
+    """What is wrong with the stored work-precision data ``stored`` (a dict as
+    :func:`workprecision.load` reads it) against ``runs``, the :data:`CHECKED` runs made
+    again (finished): one line each, none when they hold. The file must be what
+    :func:`work_precision` makes of its own rows and of the scene the runs have now; its rows
+    the study's runs with the defaults; each stable row's measure the largest of its errors
+    (what the target is compared with), its cost points x steps; and each run made again
+    must give its stored row (all but the wall time)."""
+    out = []
+    rows = stored.get("runs", [])
+    _same(stored, work_precision(scene_of(runs), rows, fit_orders(rows), DEFAULT_SCENE), "",
+          out)
+    named = {tag(r["element"], r["cells"], r["ppc"], r["dt_safety"]): r for r in rows}
+    planned = {tag(e, c, k, s) for _, e, c, k, s, v in plan(False) if not v}
+    if set(named) != planned:
+        out.append(f"runs: stored {sorted(set(named) - planned)} beyond the study's, "
+                   f"{sorted(planned - set(named))} of the study missing")
+    scales = [scale for _, _, scale in workprecision.JUDGED.values()]
+    for name, r in named.items():
+        if r.get("cost") != r["n_points"] * r["steps"]:
+            out.append(f"{name}: cost {r.get('cost')} is not points x steps")
+        if r["stable"]:
+            largest = max(abs(s * e) for errs in r["by_tv"].values()
+                          for s, e in zip(scales, errs))
+            if not math.isclose(r["measure"], largest, rel_tol=1e-12):
+                out.append(f"{name}: measure {r['measure']!r} is not the largest of its "
+                           f"errors, {largest!r}")
+    for run in runs:
+        if run.result is None or run.code not in (0, 3):
+            out.append(f"{run.name}: the run failed (exit {run.code}): {run.stderr[-300:]}")
+        elif run.name not in named:
+            out.append(f"{run.name}: not in the stored file")
+        else:
+            made = {k: v for k, v in row_of(run).items() if k not in NOT_COMPARED}
+            mine = {k: v for k, v in named[run.name].items() if k not in NOT_COMPARED}
+            _same(mine, json.loads(json.dumps(made)), f"{run.name}: ", out)
+    return out
+
+
+def check(args) -> int:
+    """``--check``: the :data:`CHECKED` runs made afresh into ``--runs`` and
+    :func:`differences` of ``--data`` against them, said; 0 when the data hold, 1 when
+    not, 2 when ``--data`` is no work-precision file."""
+    runs = [r for r in make_runs(args) if r.name in CHECKED]
+    shown = os.path.relpath(args.data, ROOT) if os.path.abspath(args.data).startswith(
+        ROOT + os.sep) else args.data
+    print(f"Checking {shown}: {len(runs)} of its runs again "
+          f"({', '.join(r.name for r in runs)})", flush=True)
+    if args.dry_run:
+        dry_run(runs, args)
+        return 0
+    try:
+        stored = workprecision.load(args.data)
+    except InputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    study.execute_all(runs, args.cores, log=lambda m: print(m, flush=True), fresh=True)
+    problems = differences(stored, runs)
+    for line in problems:
+        print("  " + line)
+    print(f"{shown}: "
+          + (f"{len(problems)} difference(s): make it again with "
+             "scripts/convergence-study --publish" if problems else
+             f"holds ({len(stored['runs'])} runs; the runs made again give their stored "
+             "rows)"))
+    return 1 if problems else 0
 
 
 def main(argv=None):
     args = arguments(argv)
     os.chdir(ROOT)
+    if args.check:
+        return check(args)
     runs = make_runs(args)
     print(f"Convergence study of {args.scene}: {len(runs)} runs, {args.ranks} rank(s) each",
           flush=True)

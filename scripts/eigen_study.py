@@ -31,19 +31,16 @@ import time
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 import numpy as np  # noqa: E402
 
-PUBLISHED = os.path.join(ROOT, "docs", "results")
-DEFAULT_OUT = os.path.join(ROOT, "output", "studies", "eigen")
+from solver.studies import study as harness  # noqa: E402  (study() below is the eigen study)
+
 STUDY = {"q4": [(1, 10), (1, 20), (2, 40), (2, 80), (4, 160)],
          "q8": [(1, 10), (1, 20), (2, 40), (2, 80)],
          "q9": [(1, 10), (1, 20), (2, 40), (2, 80)]}
@@ -295,20 +292,13 @@ def arguments(argv=None):
     ap.add_argument("--cells", help="benchmark: comma-separated N of the Q9 1 x N columns "
                     f"(default {','.join(map(str, BENCHMARK_CELLS))})")
     ap.add_argument("--repeats", type=int, default=1, help="timed runs per solver (best)")
-    ap.add_argument("--out", default=None,
-                    help="folder for the CSV and figures (default "
-                         f"{os.path.relpath(DEFAULT_OUT, ROOT)})")
-    ap.add_argument("--publish", action="store_true",
-                    help=f"write into {os.path.relpath(PUBLISHED, ROOT)}, the tracked results "
-                         "the docs show, instead of the default folder")
+    harness.add_destination(ap, "eigen", "the CSV and figures")
     ap.add_argument("--formats", default="png",
                     help="comma-separated figure formats: png, pdf, svg (default png)")
     ap.add_argument("--dry-run", action="store_true",
                     help="print the models and where the results would go, run nothing")
     args = ap.parse_args(argv)
-    if args.publish and args.out:
-        ap.error("--publish writes docs/results; leave out --out (or --publish)")
-    args.out = args.out or (PUBLISHED if args.publish else DEFAULT_OUT)
+    args.out = harness.destination(ap, args)
     try:
         args.formats = output.figure_formats(args.formats)
     except ValueError as exc:

@@ -39,11 +39,11 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-if __name__ == "__main__":
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, str(REPO))
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 SCENE = REPO / "cases" / "consolidation-strip-layered.opts"
 TV = (0.01, 0.1, 1.0)

@@ -38,14 +38,11 @@ import time
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 import numpy as np  # noqa: E402
 

@@ -27,14 +27,11 @@ import tempfile
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 REPORTS = (0.05, 0.2, 0.5)
 COMMON = ["-mpm_analysis", "consolidation", "-mpm_ppc", "3", "-mpm_Tv_end", "0.5",

@@ -20,13 +20,11 @@ import sys
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver and tests first on the path, under a
-    # Python with PETSc. Imported, the module does nothing: the importer puts them there.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path[:0] = [ROOT, os.path.join(ROOT, "tests")]
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 import numpy as np  # noqa: E402
 

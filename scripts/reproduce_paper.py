@@ -20,14 +20,11 @@ import time
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 import numpy as np  # noqa: E402
 
@@ -36,8 +33,6 @@ from solver.io import figures, output  # noqa: E402
 from solver.references import analytic  # noqa: E402
 from solver.studies import study  # noqa: E402
 
-PUBLISHED = os.path.join(ROOT, "docs", "results")
-DEFAULT_OUT = os.path.join(ROOT, "output", "studies", "paper")
 LOAD = 10e3                 # Pa: the paper's surface load q (cases/consolidation-*.opts)
 MARKERS = ("o", "s", "^")
 REF_CLASSIC = dict(ls="--", lw=0.9)
@@ -61,12 +56,7 @@ def arguments(argv=None):
     ap.add_argument("--cores", type=int, default=study.cores(),
                     help="scenes run at once, one rank each (default: the cores of this "
                          "machine, %(default)s)")
-    ap.add_argument("--out", default=None,
-                    help=f"folder for paper.md, paper.json and the figures (default "
-                         f"{os.path.relpath(DEFAULT_OUT, ROOT)})")
-    ap.add_argument("--publish", action="store_true",
-                    help=f"write into {os.path.relpath(PUBLISHED, ROOT)}, the tracked results "
-                         "the docs show, instead of the default folder")
+    study.add_destination(ap, "paper", "paper.md, paper.json and the figures")
     ap.add_argument("--runs", default=os.path.join(ROOT, "output", "paper"),
                     help="folder for the scenes' own output (default output/paper)")
     ap.add_argument("--fresh", action="store_true",
@@ -76,9 +66,7 @@ def arguments(argv=None):
     ap.add_argument("--dry-run", action="store_true",
                     help="print the scenes and where the results would go, run nothing")
     args = ap.parse_args(argv)
-    if args.publish and args.out:
-        ap.error("--publish writes docs/results; leave out --out (or --publish)")
-    args.out = args.out or (PUBLISHED if args.publish else DEFAULT_OUT)
+    args.out = study.destination(ap, args)
     try:
         args.formats = output.figure_formats(args.formats)
     except ValueError as exc:

@@ -35,11 +35,11 @@ import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 from solver.studies import study  # noqa: E402
 

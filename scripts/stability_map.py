@@ -23,14 +23,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
-    # Run as a command: this repository's solver first on the path, under a Python with
-    # PETSc (solver.io.launch needs only the standard library). Imported, the module does
-    # nothing: the importer puts the repository on the path.
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 from solver.io import output  # noqa: E402
 from solver.studies import study  # noqa: E402

@@ -31,11 +31,11 @@ import tempfile
 
 # realpath: the command scripts/NAME is a symlink to this file.
 ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
-if __name__ == "__main__":
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
     sys.path.insert(0, ROOT)
-    from solver.io.launch import use_petsc_python
+    from solver.studies.study import start
 
-    use_petsc_python()
+    start()
 
 FE_CELLS = (64, 32)   # within 0.05 % of 128 x 64 in the settlement at T_v = 0.01
 REFERENCE = 100.0     # --bound: the inertia-free run has S / REFERENCE

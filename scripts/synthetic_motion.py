@@ -34,7 +34,15 @@ import os
 import sys
 import tempfile
 
-import numpy as np
+# realpath: the command scripts/NAME is a symlink to this file.
+ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
+if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
+    sys.path.insert(0, ROOT)
+    from solver.studies.study import start
+
+    start()
+
+import numpy as np  # noqa: E402
 
 BETA = 3.5                 # km/s, shear-wave speed at the source (Boore 2003)
 EPS, ETA, F_TGM = 0.2, 0.05, 2.0   # Saragoni-Hart window (Boore 2003, eq. 10-11)

@@ -170,7 +170,7 @@ def _run(argv, origins, scene_analysis, comm) -> int:
 
     from .common import signals
     from .common.errors import InputError, InternalError, Interrupted, NumericalError, describe
-    from .io import checkpoint, options
+    from .io import options, restart
 
     _survive_closed_stdout()
     if set(HELP) & set(argv):
@@ -183,7 +183,7 @@ def _run(argv, origins, scene_analysis, comm) -> int:
         PETSc.Sys.pushErrorHandler("ignore")
     try:
         signals.stage("set-up")
-        params = checkpoint.read_options(origins)
+        params = restart.read_options(origins)
         params, moved = _own_folder(params, scene_analysis)
         for note in params.notes + moved:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
@@ -245,11 +245,11 @@ def _help(options, origins, comm) -> int:
     from petsc4py import PETSc
 
     from .common.errors import InputError
-    from .io import checkpoint
+    from .io import restart
 
     problem = ""
     try:
-        values = checkpoint.read_options(origins)
+        values = restart.read_options(origins)
     except InputError as exc:
         values, problem = options.given_text(), f"\nNote: {exc}; this command would stop there"
     text = ("Options of the MPM solver (SI units), with the values this command would use "

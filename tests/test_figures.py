@@ -1,5 +1,5 @@
 """Figures: every format on request (output.save_figure), the consolidation figures'
-references, labels, units and colour map (solver.io.figures)."""
+references, labels, units and colour map (solver.consolidation.plots)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from test_analytic import reference
 
-from solver.io import figures, output
+from solver.consolidation import plots as figures
+from solver.io import output
 
 
 def _figure():
@@ -124,7 +125,8 @@ def test_settlement_time_in_the_scenes_own_unit(t_end, unit, seconds):
 def test_pressure_field_of_a_wide_body_stacks_its_panels():
     """A body wider than high (a strip footing's block) gets its snapshots one above the
     other, each panel as wide as the figure; a column keeps them side by side."""
-    from solver.io import figures, output
+    from solver.consolidation import plots as figures
+from solver.io import output
 
     plt = output.pyplot()
     x, y = np.meshgrid(np.linspace(0.05, 1.95, 20), np.linspace(0.05, 0.95, 10))

@@ -56,10 +56,12 @@ class Phases:
         """The phase ``phase`` ends now."""
         self.marks.append((phase, time.perf_counter()))
 
-    def seconds(self) -> dict:
-        """``{phase: s, ..., "total": s}`` of the phases marked so far."""
+    def seconds(self, running: str = "") -> dict:
+        """``{phase: s, ..., "total": s}`` of the phases marked so far, and of the phase
+        ``running`` (when given) up to now."""
         out, last = {}, self.origin
-        for phase, at in self.marks:
+        marks = self.marks + ([(running, time.perf_counter())] if running else [])
+        for phase, at in marks:
             out[phase] = at - last
             last = at
         out["total"] = last - self.origin

@@ -19,6 +19,7 @@ from ..io.output import Outputs
 from ..model.scene import Body, Loading
 from ..model.soil import Soil
 from ..references import analytic, layered
+from ..run.loop import Cadence
 from ..stepping.scheme import Scheme
 from ..stepping.timestep import Limits
 
@@ -55,6 +56,18 @@ class Schedule:
     def t_end(self) -> float:
         """The time (s) of the last step."""
         return self.time(self.nsteps)
+
+    def cadence(self) -> Cadence:
+        """The loop's cadence: samples every ``sample_every`` steps and at the isochrones,
+        fields at the reports (and every ``output_every``), the state checked at the
+        isochrones too."""
+        iso = frozenset(self.iso_steps)
+        return Cadence(self.nsteps, sample_every=self.sample_every,
+                       output_every=self.output_every,
+                       checkpoint_every=self.checkpoint_every,
+                       checkpoint_seconds=self.checkpoint_seconds,
+                       progress_seconds=self.progress, sample_steps=iso,
+                       output_steps=frozenset(self.report_steps), check_steps=iso)
 
 
 FORMS = ("classic", "consistent")     # incompressible water (c_v), compressible (c2)

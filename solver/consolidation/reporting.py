@@ -16,7 +16,8 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..modal import frequency
-from ..io import figures, output
+from ..io import output
+from . import plots
 from ..io.fields import PointSeries
 from ..references import analytic
 from . import fe_reference, settlement
@@ -326,7 +327,7 @@ def _figures(plan, profiles, hist):
                                 out.formats)
     shown = [pr for pr in profiles if pr[0] in plan.schedule.Tv_report] or profiles[-1:]
     excess = plan.refs.excess
-    fig = figures.pressure_field(
+    fig = plots.pressure_field(
         plt, [(Tv, prof[:, 3], prof[:, 0], excess(prof[:, 1], prof[:, 0]))
               for Tv, _, prof in shown],
         plan.refs.q, f"Pore pressure field, {plan.body.element.upper()}, "
@@ -342,18 +343,18 @@ def _isochrone_figure(plt, plan, profiles):
     """The points' p / q at each report time over both references, coloured by T_v."""
     refs = plan.refs
     fig, ax = plt.subplots(figsize=(6, 6))
-    colors = figures.tv_colors(plt, len(profiles))
+    colors = plots.tv_colors(plt, len(profiles))
     if refs.available:
-        figures.isochrone_references(
+        plots.isochrone_references(
             ax, [Tv for Tv, _, _ in profiles], colors, refs.H, refs.ratio, refs.p0,
             None if refs.terzaghi else refs.pressure)
     for i, ((Tv, _, prof), col) in enumerate(zip(profiles, colors)):
-        k = figures.drawn(len(prof))
+        k = plots.drawn(len(prof))
         ax.plot(refs.excess(prof[k, 1], prof[k, 0]) / refs.q, prof[k, 0], "o", color=col,
                 ms=3, mfc="none", label=None if i else "MPM points")
-    figures.layer_interfaces(ax, plan.soil, label=True)
+    output.layer_interfaces(ax, plan.soil, label=True)
     ax.set_title(f"Isochrones, {title(plan)}")
-    figures.legend_below(ax, ncol=2)
+    plots.legend_below(ax, ncol=2)
     return fig
 
 
@@ -375,7 +376,7 @@ def _axis_figure(plt, plan, profiles):
             j = None
         if j is not None:
             lines.append((Tv, np.linspace(0.0, refs.H, fe.line.shape[1]), fe.line[j] / refs.q))
-    return figures.axis_profiles(
+    return plots.axis_profiles(
         plt, snapshots, lines, refs.H,
         f"Pore pressure under the axis (x = {pr.column:.4g} m), {title(plan)}"
         + (f"\nFE reference: Q9/Q4 {fe.cells[0]} x {fe.cells[1]} cells" if fe is not None
@@ -391,18 +392,18 @@ def _monitor_figure(plt, plan, hist):
     Tv = np.geomspace(1e-4, plan.schedule.Tv_end, 400)
     if refs.terzaghi:
         ax.plot(Tv, analytic.terzaghi(H - height, Tv, H), color="k",
-                label="Terzaghi, classic", **figures.CLASSIC)
+                label="Terzaghi, classic", **plots.CLASSIC)
         ax.plot(Tv, analytic.terzaghi(H - height, Tv * refs.ratio, H, refs.p0), color="k",
-                label="Terzaghi, compressible water", **figures.COMPRESSIBLE)
+                label="Terzaghi, compressible water", **plots.COMPRESSIBLE)
     elif refs.available:
         ax.plot(Tv, refs.pressure(height, Tv, "classic"), color="k",
-                label="reference, classic", **figures.CLASSIC)
+                label="reference, classic", **plots.CLASSIC)
         ax.plot(Tv, refs.pressure(height, Tv, "consistent"), color="k",
-                label="reference, compressible water", **figures.COMPRESSIBLE)
+                label="reference, compressible water", **plots.COMPRESSIBLE)
     elif refs.fe is not None:
         fe = refs.fe
         ax.plot(refs.time_factor(fe.t), fe.monitor / refs.q, "k", marker=".",
-                label=f"FE reference ({fe.cells[0]} x {fe.cells[1]} Q9/Q4)", **figures.CLASSIC)
+                label=f"FE reference ({fe.cells[0]} x {fe.cells[1]} Q9/Q4)", **plots.CLASSIC)
     ax.set_xscale("log")
     ax.set_xlabel("time factor T_v = c_v t / H^2 (-)")
     ax.set_ylabel(f"p / q at {height:.4g} m (-)" if math.isnan(plan.monitor_x)

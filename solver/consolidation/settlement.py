@@ -9,7 +9,8 @@ import os
 import numpy as np
 from petsc4py import PETSc
 
-from ..io import figures, output
+from ..io import output
+from . import plots
 from ..references import analytic
 
 
@@ -340,7 +341,7 @@ def write_files(outputs, surface, rows, refs, Tv_end, cells, troughs=()):
     if troughs:
         files["settlement_trough_csv"] = write_trough(folder, troughs, refs.static, fe)
         if outputs.figures:
-            fig = figures.settlement_trough(
+            fig = plots.settlement_trough(
                 output.pyplot(), troughs, surface.extent, refs.static,
                 f"Settlement trough, {cells}",
                 [(Tv, fe.probes.trough, fe.trough_at(Tv)) for Tv, _, _ in troughs
@@ -348,7 +349,7 @@ def write_files(outputs, surface, rows, refs, Tv_end, cells, troughs=()):
             files.update(output.save_figures(fig, folder, "settlement_trough", formats))
     r = history(rows)
     if outputs.figures and surface.axis is not None:
-        fig = figures.settlement_time_2d(
+        fig = plots.settlement_time_2d(
             output.pyplot(), r[:, 0], r[:, 4], r[:, 2], surface.axis, surface.extent,
             None if fe is None else (fe.t, fe.axis, fe.mean, fe.cells),
             refs.static[:2] if refs.static else None, f"Surface settlement, {cells}")
@@ -356,11 +357,11 @@ def write_files(outputs, surface, rows, refs, Tv_end, cells, troughs=()):
     if not (outputs.figures and surface.valid):     # no U: no reference to draw against
         return files
     name = "Terzaghi" if refs.terzaghi else "Reference"
-    fig = figures.consolidation_degree(
+    fig = plots.consolidation_degree(
         output.pyplot(), r[:, 1], *surface.degrees(rows), ratio, Tv_end,
         f"Degree of consolidation, {cells}", refs.degree, name)
     files.update(output.save_figures(fig, folder, "settlement", formats))
-    fig = figures.settlement_time(
+    fig = plots.settlement_time(
         output.pyplot(), r[:, 0], r[:, 2], surface.s0, surface.s_inf, refs.c_v, ratio,
         surface.H, f"Surface settlement, {cells}", refs.degree, name, surface.s0_classic)
     files.update(output.save_figures(fig, folder, "settlement_time", formats))

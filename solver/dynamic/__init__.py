@@ -1,8 +1,11 @@
-"""Dynamics: ``-mpm_analysis dynamic``, the body shaken at its base or loaded
+"""The dynamic analysis: ``-mpm_analysis dynamic``, the body shaken at its base or loaded
 suddenly, stepped in time.
 
-- ``driver``: the analysis: the options read once (``Request``), the plan (motion, natural
-  frequencies, Rayleigh damping), the time loop with its records and checkpoints;
+- ``driver``: the analysis, run by the command line: the model as the loop drives it
+  (``Shaken``), its records and field series;
+- ``plan``: the options read once (``Request``), checked and planned (motion, supports,
+  natural frequencies, Rayleigh damping);
+- ``onephase``: one phase on the nodes: the shaken body's step, row means, state and fields;
 - ``saturated``: two phases under a sudden load or shaken on a rigid base: the explicit
   v-w step without dampers, with the saturated column's references;
 - ``histories``: what a run records (row means at depths, peaks with depth) and the

@@ -6,7 +6,6 @@ response where the scene is the one-dimensional column it describes, the figures
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 from petsc4py import PETSc
@@ -50,21 +49,18 @@ def _depths(plan, model):
     return histories.record_rows(model.heights, plan.body.height, plan.depths)[1]
 
 
-def progress_line(rec, k: int, nsteps: int, t: float, t0: float, first: int) -> str:
-    now = time.perf_counter()
+def progress_words(rec, t: float) -> str:
+    """What a progress line says of the run at time ``t`` (s)."""
     surface = rec.samples[-1][0, 3 * rec.comp] if rec.samples else float("nan")
-    return (f"  step {k}/{nsteps} ({100 * k / max(nsteps, 1):.0f} %), t = {t:.4g} s, "
-            f"surface a = {surface:.4g} m/s2, {now - t0:.0f} s elapsed, about "
-            f"{(now - t0) / (k - first + 1) * (nsteps - k):.0f} s left")
+    return f"t = {t:.4g} s, surface a = {surface:.4g} m/s2"
 
 
-def summary_head(plan, model, nsteps: int, recorded: dict) -> dict:
-    head = {"analysis": "dynamic", "run_id": plan.run["id"], "completed": False,
-            "phases": plan.phases, "dt": model.dt, "steps": nsteps, "t_end": plan.t_end,
-            "provenance": recorded}
+def keys(plan, model) -> dict:
+    """The run's keys in the summary before the first step."""
+    out = {"phases": plan.phases, "dt": model.dt, "t_end": plan.t_end}
     if not model.water:       # the bound the step comes from (a divisor of -mpm_record_dt)
-        head.update(w_max=model.body.w_max, dt_stable=model.body.dt_stable)
-    return head
+        out.update(w_max=model.body.w_max, dt_stable=model.body.dt_stable)
+    return out
 
 
 class Series:
@@ -79,9 +75,9 @@ class Series:
         if self.points is None and comm.getRank() == 0:
             self.writer = output.XdmfSeries(os.path.join(folder, "nodes.xdmf"), run_id=rid)
         if restart is not None:
-            entries = restart[2].get("series", [])
+            entries = restart.state.get("series", [])
             if self.points is not None:
-                self.points.resume(entries, restart[3])
+                self.points.resume(entries, restart.run_id)
             elif self.writer is not None:
                 self.writer.entries = [e for e in entries if os.path.isfile(
                     os.path.join(folder, str(e[1])))]
@@ -134,8 +130,9 @@ def exact_column(plan):
                        rock=rock, viscosity=sh.a1)
 
 
-def finish(plan, model, rec, series, summary, comm, t_wall) -> int:
-    """The outputs after the last step (rank 0 writes) and the closing lines."""
+def finish(plan, model, rec, series, record, comm) -> None:
+    """The outputs after the last step (rank 0 writes), the summary's ``dynamic`` block in
+    ``record`` and the closing lines."""
     folder = plan.outputs.folder
     t = np.array(rec.t)
     block = {"record_depths_m": rec.depths.tolist(), "eigen_hz": plan.eigen_hz.tolist(),
@@ -166,7 +163,8 @@ def finish(plan, model, rec, series, summary, comm, t_wall) -> int:
     if model.water:
         block.update(model.references(rec))
     _print_results(block, comm)
-    files = {}
+    record.results["dynamic"] = block
+    files = record.files
     if comm.getRank() == 0:
         files["histories"] = os.path.join(folder, "histories.csv")
         histories.write_histories(files["histories"], rec, model.water)
@@ -180,14 +178,7 @@ def finish(plan, model, rec, series, summary, comm, t_wall) -> int:
         fields = series.files()
         if fields:
             files["fields_xdmf"], files["fields_h5"] = fields[0], fields[1:]
-    summary.update(completed=True, dynamic=block, wall_seconds=time.perf_counter() - t_wall)
-    files["summary"] = plan.outputs.summary
-    if comm.getRank() == 0:
-        output.write_json(plan.outputs.summary, dict(summary, files=files))
-    PETSc.Sys.Print(output.results_line(folder, files), comm=comm)
-    PETSc.Sys.Print(f"Wall time {summary['wall_seconds']:.1f} s; summary "
-                    f"{plan.outputs.summary}", comm=comm)
-    return 0
+    record.finish()
 
 
 def _print_results(block, comm) -> None:

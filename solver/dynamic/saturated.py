@@ -5,7 +5,7 @@ here), the drag implicit. A base motion is taken in the frame of the base: every
 -a_b(t) (``TwoPhase.step``'s ``base``), and the records add the base's acceleration and
 velocity back.
 
-The time loop of :mod:`solver.dynamic.driver` drives it as it drives the one-phase body:
+The loop drives it as it drives the one-phase body (:mod:`solver.dynamic.driver`):
 the records are the means over the rows of material points (the pore pressure lives on
 the points); the solid's acceleration of a sample is its velocity change over the step.
 :meth:`SaturatedColumn.references` sets a run under a sudden load beside the references of
@@ -110,9 +110,9 @@ class SaturatedColumn:
     def state(self) -> dict:
         return {}                     # the points hold it all
 
-    def restore(self, restart) -> None:
-        """Take up the points of a checkpoint (:func:`checkpoint.read`'s)."""
-        checkpoint.scatter(self.points, self.grid, restart[0], restart[1], "x0")
+    def restore(self, ckpt) -> None:
+        """Take up the points of a checkpoint (:class:`solver.io.checkpoint.Checkpoint`)."""
+        checkpoint.scatter(self.points, self.grid, ckpt, "x0")
         self._rows()
 
     def references(self, rec) -> dict:

@@ -1,7 +1,10 @@
 """The eigenfrequency analysis: the column's natural frequencies and mode shapes by the modal
 solvers (``solver.modal``), cross-checked and set beside their references.
 
-- ``driver``: the eigen analysis, run by the command line.
+- ``driver``: the eigen analysis, run by the command line;
+- ``compare``: what it sets beside the solvers: the rod, the FE model, the paper's Table 3,
+  the cross-check of Jacobi and SLEPc, the table printed;
+- ``plots``: the mode-shape figure, and how a frequency is printed.
 
 May import: stepping, modal, run, io, references, model, common.
 

@@ -1,16 +1,14 @@
 """What goes in and out of a run: the options read from the command line and the scene files;
-the results on disk (summaries, fields, figures, checkpoints, provenance, what a stopped run
-leaves); the memory check before anything is allocated; the start-up of the executables. It
+the results on disk (summaries, fields, figures, checkpoints, provenance); the memory check before anything is allocated; the start-up of the executables. It
 knows nothing of the analyses: they call it.
 
 - ``options``: the -mpm_ options: declared once, read once, checked;
 - ``scenefile``: a scene file (cases/*.opts), checked line by line and read as pairs;
 - ``output``: JSON, VTU, XDMF + HDF5 series and figures written whole; where results go;
 - ``fields``: the point fields of a run as a time series on disk;
-- ``figures``: isochrones, pressure field, degree of consolidation;
-- ``checkpoint``: checkpoints of explicit runs, and the restart's checks;
+- ``checkpoint``: checkpoints of stepping runs, written and read whole;
+- ``restart``: what a restart takes from its checkpoint (the options) and may not touch;
 - ``provenance``: versions, git commit and options for the summary;
-- ``failure``: what a run that stops early writes;
 - ``memory``: the memory a model needs, checked before anything is allocated;
 - ``launch``: the Python the executables run under (one that imports PETSc);
 - ``records``: recorded base motions (a CSV of t and a, a PEER .AT2 file), read and checked;

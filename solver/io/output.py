@@ -366,3 +366,12 @@ def results_line(folder, files: dict) -> str:
         else:
             names.append(name(value))
     return f"Results in {folder}: " + ", ".join(names)
+
+
+def layer_interfaces(ax, soil, label: bool = False):
+    """Dashed red horizontal lines (red: visible over the pressure colours) at the layer
+    interfaces of ``soil`` (a soil.Ground; nothing for one soil), on a plot against height
+    y (m); ``label`` names them once in the legend."""
+    for i, level in enumerate(getattr(soil, "bottoms", ())[:-1]):
+        ax.axhline(level, color="tab:red", lw=1.2, ls="--", zorder=3,
+                   label="layer interface" if label and i == 0 else None)

@@ -231,37 +231,37 @@ def estimated_steps(soil, body, dt, safety, Tv_end, drag: str, S: float) -> floa
     return Tv_end * H * H / soil.c_v / dt
 
 
-def check_feasible(p, scheme, soil, body):
-    """InputError, before anything is analysed or written, when the run would take more
-    than MAX_STEPS steps; it names the options that bring it down, and to how many."""
-    if p.restart:
-        return
+def check_feasible(req, scheme, soil, body):
+    """InputError, before anything is analysed or written, when a new run would take more
+    than MAX_STEPS steps; it names the options that bring it down, and to how many.
+    ``req``: what the options ask of the time scheme (``dt``, ``dt_safety``, ``Tv_end``,
+    ``Tv_report``: :class:`solver.consolidation.implicit.choice.Request`)."""
     drag, S = scheme.drag, scheme.mass_scaling
 
     def steps(drag, S):
-        return estimated_steps(soil, body, p.dt, p.dt_safety, p.Tv_end, drag, S)
+        return estimated_steps(soil, body, req.dt, req.dt_safety, req.Tv_end, drag, S)
 
     estimate = steps(drag, S)
     if estimate <= MAX_STEPS:
         return
-    if not math.isnan(p.dt):
-        raise InputError(f"-mpm_dt {p.dt:g}: {estimate:.3g} steps to T_v = {p.Tv_end:g}, "
+    if not math.isnan(req.dt):
+        raise InputError(f"-mpm_dt {req.dt:g}: {estimate:.3g} steps to T_v = {req.Tv_end:g}, "
                          f"more than {MAX_STEPS:.0e}; raise -mpm_dt or lower -mpm_Tv_end")
     ways = []                                   # (what to change, steps with it)
     if drag == "explicit":
         ways.append(("-mpm_drag implicit", steps("implicit", S)))
-    first_tv = min(p.Tv_report)
-    if p.mass_scaling != "auto" and decay(scheme.damping, scheme.fast_damping)[0] < 1:
+    first_tv = min(req.Tv_report)
+    if scheme.mass_scaling_choice != "auto" and decay(scheme.damping, scheme.fast_damping)[0] < 1:
         S_auto = auto_factor(soil, body.height, first_tv, scheme.damping,
                              scheme.fast_damping, scheme.wave_period)
         ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
                      + f"-mpm_mass_scaling auto (S = {S_auto:.3g})", steps("implicit", S_auto)))
     if not any(n <= MAX_STEPS for _, n in ways):
         # Neither the drag nor the inertia makes this run finish: it is too long.
-        raise InputError(f"-mpm_Tv_end {p.Tv_end:g}: at least {estimate:.3g} steps, more "
+        raise InputError(f"-mpm_Tv_end {req.Tv_end:g}: at least {estimate:.3g} steps, more "
                          f"than {MAX_STEPS:.0e} (" + "".join(f"with {w}: {n:.3g}; "
                                                              for w, n in ways)
                          + "shorten the run or coarsen the grid)")
-    raise InputError(f"-mpm_mass_scaling {p.mass_scaling}: at least {estimate:.3g} steps to "
-                     f"T_v = {p.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
+    raise InputError(f"-mpm_mass_scaling {scheme.mass_scaling_choice}: at least {estimate:.3g} steps to "
+                     f"T_v = {req.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
                      "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))

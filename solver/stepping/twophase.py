@@ -194,7 +194,6 @@ class TwoPhase:
                              K.APO: self._pg})
         self._integers(self._C)
         self._gen = None
-        self._flags = None
         _, self._hrz, self._blend, self._layered = kernel_variant(grid.element, scheme,
                                                                  self.layered)
         self.compiled = compile_kernels(grid.element, scheme, self.layered)
@@ -484,34 +483,21 @@ class TwoPhase:
         """Pore pressure (Pa), volume ratio and position (m) of local point i."""
         return float(self.pp[i]), float(self.J[i]), self.x[i].tolist()
 
-    def migrate_if_needed(self, flags=(0,)):
-        """Send points that entered another rank's cells there (collective).
-
-        ``flags`` are small integers every rank contributes; their maxima over the ranks
-        come back (a sequence of as many), so that decisions such as stopping are taken
-        together in the same reduction."""
+    def migrate(self):
+        """Send points that entered another rank's cells there (collective on more than one
+        rank with large kinematics; points that keep their reference positions never
+        leave their cells)."""
+        if self.serial or self.small:
+            return
         with self.ev_migrate:
-            if self.serial:
-                # The maxima over one rank are the flags themselves (no array: this is
-                # per step).
-                return flags
             self._prepare()
             # A point stays when its cell, floor(x / h) clipped to the grid as Grid.locate
             # computes it, is in this rank's box (kernels.leaving).
-            if self._flags is None or len(self._flags) != 1 + len(flags):
-                self._flags = np.empty(1 + len(flags), dtype=np.int64)
-                self._flags_out = np.empty(1 + len(flags), dtype=np.int64)
-            self._flags[0] = kernels.leaving(self._C)
-            self._flags[1:] = flags
             from mpi4py import MPI
 
-            self.mpi.Allreduce(self._flags, self._flags_out, op=MPI.MAX)
-            out = self._flags_out.copy()
-            if out[0]:
+            if self.mpi.allreduce(int(kernels.leaving(self._C)), op=MPI.MAX):
                 cx, cy, _, _ = self.grid.locate(self.xref)
                 self.points.migrate(self.grid.cell_owner(cx, cy))
-            return out[1:]
-
 
 if __name__ == "__main__":
     compile_defaults()

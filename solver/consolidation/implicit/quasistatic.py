@@ -261,17 +261,6 @@ class QuasiStatic:
             raise NumericalError(f"implicit scheme: non-finite state at step {step}, "
                                  f"t = {t:.6g} s")
 
-    def migrate_if_needed(self, flags=(0,)):
-        """The points keep their cells (small strain): only the flags' maxima over the
-        ranks, as the explicit step's (collective)."""
-        if self.comm.getSize() == 1:
-            return flags
-        from mpi4py import MPI
-
-        out = np.array(flags, dtype=np.int64)
-        self.mpi.Allreduce(MPI.IN_PLACE, out, op=MPI.MAX)
-        return out
-
     # -- checkpoints --------------------------------------------------------------------------
     def state(self) -> list:
         """The nodal state in natural order (every rank; a checkpoint's)."""

@@ -1,4 +1,4 @@
-"""Consolidation figures shared by the solver and ``scripts/reproduce-paper``: isochrones
+"""The consolidation analysis's figures, shared by the solver and ``scripts/reproduce-paper``: isochrones
 against both Terzaghi references (classic and compressible water), and the pore-pressure field.
 
 Heights and widths in m, pore pressure in kPa or normalised by the load q (p / q), the time
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..io import output
 from ..references import analytic
 
 # Perceptually uniform and readable in grey and by colour-blind readers; a rainbow map such
@@ -17,15 +18,6 @@ from ..references import analytic
 PRESSURE_CMAP = "viridis"
 CLASSIC = dict(ls="-", lw=1.2)
 COMPRESSIBLE = dict(ls=":", lw=1.2)
-
-
-def layer_interfaces(ax, soil, label: bool = False):
-    """Dashed red horizontal lines (red: visible over the pressure colours) at the layer
-    interfaces of ``soil`` (a soil.Ground; nothing for one soil), on a plot against height
-    y (m); ``label`` names them once in the legend."""
-    for i, level in enumerate(getattr(soil, "bottoms", ())[:-1]):
-        ax.axhline(level, color="tab:red", lw=1.2, ls="--", zorder=3,
-                   label="layer interface" if label and i == 0 else None)
 
 
 def tv_colors(plt, n: int):
@@ -105,7 +97,7 @@ def pressure_field(plt, snapshots, q: float, title: str, width: float = None,
                         cmap=PRESSURE_CMAP, vmin=0, vmax=q / 1e3)
         ax.set_title(f"T_v = {Tv:g}", fontsize=9)
         ax.set_aspect("equal")
-        layer_interfaces(ax, soil)
+        output.layer_interfaces(ax, soil)
         if wide:
             ax.set_ylabel("y (m)")
             ax.set_xlim(0, width)
@@ -259,7 +251,7 @@ def axis_profiles(plt, snapshots, lines, H: float, title: str, soil=None):
     if lines:
         ax.plot([], [], color="k", lw=1.0, label="FE reference")
     ax.plot([], [], "o", ms=3.5, mfc="none", color="k", label="MPM points")
-    layer_interfaces(ax, soil, label=True)
+    output.layer_interfaces(ax, soil, label=True)
     ax.set_xlabel("excess pore pressure p / q (-)")
     ax.set_ylabel("height above the base (m)")
     ax.set_ylim(0, H)
