@@ -55,7 +55,7 @@ def test_table5_errors_no_larger_than_paper(mesh_runs):
         # The classic reference is Terzaghi at the monitor depth, recomputed here.
         for Tv, ref in zip(mon["Tv"], mon["terzaghi"]):
             assert ref == pytest.approx(terzaghi(1.0 - mon["height"], Tv), rel=1e-9)
-        assert s["stable"] is True and s["ranks"] == 1
+        assert s["completed"] is True and s["provenance"]["ranks"] == 1
 
 
 def test_consistent_error_falls_with_refinement(mesh_runs):
@@ -144,7 +144,7 @@ def test_one_and_more_ranks_agree(cli, tmp_path, case, ranks, extra):
                      out_dir=tmp_path / "n1"))
     b = check_ok(cli(args, ranks=ranks, options_file=f"consolidation-{case}",
                      out_dir=tmp_path / "n2"))
-    assert b["ranks"] == ranks
+    assert b["provenance"]["ranks"] == ranks
     assert a["dt"] == b["dt"] and a["steps"] == b["steps"]
     for key in ("p_over_q",):
         np.testing.assert_allclose(b["monitor"][key], a["monitor"][key], rtol=1e-10)
@@ -167,7 +167,7 @@ def _stable(cli, tmp_path, case, dt, extra, name):
               options_file=f"consolidation-{case}", out_dir=tmp_path / name)
     assert res.returncode in (0, 3), res.stderr
     if res.returncode == 3:
-        assert res.summary["stable"] is False
+        assert res.summary["error"]["kind"] == "numerical"
         assert "step" in res.stderr and res.stderr.count("\n") == 1
     return res.returncode == 0
 
@@ -259,7 +259,7 @@ def test_blow_up_exits_3_with_summary(cli, tmp_path):
     assert "WARNING" in res.stdout
     line = res.stderr.strip()
     assert line.startswith("solver: error: blow-up") and "step" in line and "t =" in line
-    assert res.summary["stable"] is False and res.summary["steps"] > 0
+    assert res.summary["error"]["kind"] == "numerical" and res.summary["steps"] > 0
     assert math.isclose(res.summary["dt"], 5e-4)
 
 

@@ -122,7 +122,7 @@ def test_jacobi_sweeps_within_paper_count(paper_run, element):
 def test_scene_size(paper_run, element):
     s = check_ok(paper_run(element)[0])
     assert s["analysis"] == "eigen"
-    assert s["ranks"] == 1
+    assert s["provenance"]["ranks"] == 1
     assert s["ndof"] == expected_free_dofs(element, 1, 10)
     assert s["ndof"] == {"q4": 20, "q8": 60, "q9": 80}[element]
     assert s["n_points"] == 10 * PPC[element] ** 2

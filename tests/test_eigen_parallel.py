@@ -12,7 +12,7 @@ WIDE = ["-mpm_cells", "4,6", "-mpm_size", "0.4,0.6", "-mpm_nu", "0.3", "-mpm_ele
 
 
 def assert_same_model(s1, sn, ranks):
-    assert sn["ranks"] == ranks and s1["ranks"] == 1
+    assert sn["provenance"]["ranks"] == ranks and s1["provenance"]["ranks"] == 1
     assert sn["ndof"] == s1["ndof"]
     assert sn["n_points"] == s1["n_points"]
     for solver in ("jacobi", "slepc"):

@@ -126,7 +126,7 @@ def test_pressure_field_of_a_wide_body_stacks_its_panels():
     """A body wider than high (a strip footing's block) gets its snapshots one above the
     other, each panel as wide as the figure; a column keeps them side by side."""
     from solver.consolidation import plots as figures
-from solver.io import output
+    from solver.io import output
 
     plt = output.pyplot()
     x, y = np.meshgrid(np.linspace(0.05, 1.95, 20), np.linspace(0.05, 0.95, 10))

@@ -198,7 +198,7 @@ def test_layered_scenes_agree_on_one_and_two_ranks(cli, tmp_path, scene, extra):
     runs = [check_ok(cli(extra + ["-mpm_progress", "0", "-mpm_figures", "0"], ranks=n,
                          options_file=scene, out_dir=tmp_path / str(n), process=True))
             for n in (1, 2)]
-    assert runs[1]["ranks"] == 2 and len(runs[0]["layers"]) == 2
+    assert runs[1]["provenance"]["ranks"] == 2 and len(runs[0]["layers"]) == 2
     np.testing.assert_allclose(runs[1]["monitor"]["p_over_q"], runs[0]["monitor"]["p_over_q"],
                                rtol=0, atol=1e-10)
     one, two = (_profiles(tmp_path / str(n)) for n in (1, 2))

@@ -233,7 +233,7 @@ def test_layered_scene_one_and_two_ranks_agree(cli, tmp_path):
     args = ["-mpm_figures", "0"]
     s1 = check_ok(cli(args, options_file=SCENE, out_dir=tmp_path / "n1"))
     s2 = check_ok(cli(args, ranks=2, options_file=SCENE, out_dir=tmp_path / "n2"))
-    assert (s1["ranks"], s2["ranks"]) == (1, 2) and s1["ndof"] == s2["ndof"]
+    assert (s1["provenance"]["ranks"], s2["provenance"]["ranks"]) == (1, 2) and s1["ndof"] == s2["ndof"]
     for solver in ("jacobi", "slepc"):
         np.testing.assert_allclose(s2["frequencies_hz"][solver], s1["frequencies_hz"][solver],
                                    rtol=1e-10, atol=0, err_msg=solver)

@@ -158,8 +158,7 @@ def test_wall_time_counts_every_phase_from_the_process_start(tmp_path):
     """The last line gives the total and the set-up, stepping and reporting in it, from
     the process's own start: a second slept before the command line runs is in the set-up
     and the total; the summary's ``wall`` holds the same, the phases summing to the
-    total, which holds the set-up proper and stepping (``wall_seconds``) and fits within
-    the time the parent saw the process run."""
+    total, which fits within the time the parent saw the process run."""
     import time
 
     script = ("import sys, time; time.sleep(1.0); from solver.__main__ import main; "
@@ -178,7 +177,7 @@ def test_wall_time_counts_every_phase_from_the_process_start(tmp_path):
     assert wall["setup_s"] + wall["stepping_s"] + wall["reporting_s"] == pytest.approx(
         wall["total_s"], abs=1e-9)
     assert min(wall.values()) >= 0
-    assert 1.0 <= wall["setup_s"] and summary["wall_seconds"] < wall["total_s"] <= elapsed
+    assert 1.0 <= wall["setup_s"] and wall["total_s"] <= elapsed
     last = out.strip().splitlines()[-1]
     assert last == (f"Wall time {wall['total_s']:.1f} s: set-up {wall['setup_s']:.1f} s, "
                     f"stepping {wall['stepping_s']:.1f} s, reporting "

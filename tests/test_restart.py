@@ -221,7 +221,7 @@ def test_signal_in_the_set_up(cli, tmp_path, monkeypatch, target, signum, stage)
     assert res.stderr == (f"solver: error: stopped by {name} during {stage}; "
                           f"summary {tmp_path / 'summary.json'}\n")
     s = res.summary
-    assert s["completed"] is False and s["interrupted"] is True
+    assert s["completed"] is False and s["steps"] == 0
     assert s["error"] == {"kind": "interrupted", "exit_code": 4, "stage": stage,
                           "message": f"stopped by {name} during {stage}"}
     assert s["provenance"]["options"]["mpm"]["mass_scaling"] == "auto" and s["run_id"]

@@ -260,7 +260,7 @@ def test_new_scenes_agree_on_one_and_two_ranks(cli, tmp_path, args):
              "-mpm_figures", "0"]
     runs = [check_ok(cli(args + short, ranks=n, options_file="consolidation-m1-q4",
                          out_dir=tmp_path / str(n), process=True)) for n in (1, 2)]
-    assert runs[1]["ranks"] == 2
+    assert runs[1]["provenance"]["ranks"] == 2
     assert np.allclose(runs[0]["monitor"]["p_over_q"], runs[1]["monitor"]["p_over_q"],
                        rtol=0, atol=1e-10)
     one, two = (np.loadtxt(tmp_path / str(n) / "profiles.csv", delimiter=",", skiprows=1)

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from conftest import REPO
+from conftest import REPO, script_module
 
 SCRIPTS = REPO / "scripts"
 MODULES = sorted(p.stem for p in SCRIPTS.glob("*.py"))
@@ -47,3 +47,62 @@ def test_importing_a_script_runs_nothing(name, monkeypatch, capfd):
     assert os.path.realpath(module.__file__) == str((SCRIPTS / f"{name}.py").resolve())
     assert callable(module.main)
     assert capfd.readouterr() == ("", "")
+
+
+# -- one run frame: the study harness (solver/studies/study.py) -----------------------------
+START = ('if __name__ == "__main__":      # a command, not an import: see '
+         'solver.studies.study.start\n')
+MAX_LINES = 600      # as solver/'s modules (tests/test_layout.py)
+
+
+def _text(name):
+    return (SCRIPTS / f"{name}.py").read_text()
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_every_script_starts_through_the_harness(name):
+    """One start-up, the harness's (``study.start``): the script puts the repository on the
+    path and calls it under ``__main__``, before NumPy, PETSc or the solver is imported;
+    nothing of solver.io.launch is its own."""
+    text = _text(name)
+    assert "use_petsc_python" not in text and "solver.io.launch" not in text
+    head, sep, rest = text.partition(START)
+    assert sep, f"{name}: no start-up block"
+    block = rest.split("\n\n", 2)
+    assert block[0].startswith("    sys.path") and block[0].endswith(
+        "\n    from solver.studies.study import start") and block[1] == "    start()"
+    for heavy in ("import numpy", "from petsc4py", "import petsc4py", "from solver",
+                  "import solver"):
+        assert not any(line.startswith(heavy) for line in head.splitlines()), (name, heavy)
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_every_script_takes_its_destination_and_runs_from_the_harness(name):
+    """``--out``/``--publish`` come from study.add_destination, the solver runs from
+    study.execute (no script starts ``python -m solver`` itself), and no script is over
+    MAX_LINES lines."""
+    text = _text(name)
+    for flag in ("--out", "--publish"):
+        assert f'add_argument("{flag}"' not in text, (name, flag)
+    if '"--publish"' in text or "add_destination" in text:
+        assert "add_destination(ap, " in text and "destination(ap, args)" in text
+    assert '"-m", "solver"' not in text and "subprocess.run([sys.executable, \"-m\"" \
+        not in text, name
+    assert len(text.splitlines()) <= MAX_LINES, name
+
+
+def test_each_benchmark_is_a_command_of_its_own():
+    """scripts/benchmark dispatches to no sibling script (footing-benchmark and
+    site-benchmark are commands), times each size by scripts/step-benchmark, and takes the
+    CPU's model from solver.io.provenance."""
+    text = _text("benchmark")
+    for gone in ("--footing", "--dynamic", "footing_benchmark", "site_benchmark",
+                 "/proc/cpuinfo", "sys.path.insert(0, str(REPO / \"scripts\"))"):
+        assert gone not in text, gone
+    for name in ("footing_benchmark", "site_benchmark", "step_benchmark"):
+        assert name in MODULES
+    step = script_module("step_benchmark")
+    cfg = {"element": "q9", "cells": [3, 30], "size": [0.1, 1.0], "ppc": 3, "steps": 7,
+           "warmup": 2, "repeats": 1}
+    assert step.arguments(step.command(cfg)) == cfg
+    assert step.arguments(["--element", "q4", "--cells", "2,20"])["size"] == [0.1, 1.0]

@@ -119,7 +119,7 @@ class Record:
     def error(self, message: str, code: int) -> dict:
         """The ``error`` entry of a failure now (:func:`entry`, with the step)."""
         out = entry(message, code, self.stage())
-        if self.steps is not None:
+        if self.steps is not None and self.phase != "set-up":
             out["step"] = self.steps
         return out
 

@@ -80,6 +80,7 @@ class Run:
     seconds: float = 0.0
     stderr: str = ""
     reused: bool = False
+    cwd: str = None            # the folder it runs in (default: this process's)
 
     @property
     def summary_path(self):
@@ -161,7 +162,8 @@ def execute(run: Run, log=print, fresh=False) -> Run:
         return run
     os.makedirs(run.folder, exist_ok=True)
     t0 = time.perf_counter()
-    proc = subprocess.run(run.command(), env=environment(), capture_output=True, text=True)
+    proc = subprocess.run(run.command(), env=environment(), capture_output=True, text=True,
+                          cwd=run.cwd)
     run.seconds = time.perf_counter() - t0
     run.code, run.stderr = proc.returncode, proc.stderr.strip()
     try:
@@ -177,6 +179,20 @@ def execute(run: Run, log=print, fresh=False) -> Run:
                        "seconds": run.seconds}, fh)
     last = run.stderr.splitlines()[-1] if run.stderr else ""
     log(f"  {run.name}: exit {run.code}, {run.seconds:.1f} s" + (f" ({last})" if last else ""))
+    return run
+
+
+def run_afresh(name: str, args, folder: str, ranks: int = 1, log=None) -> Run:
+    """One solver run with the options ``args`` on ``ranks`` ranks into ``folder``, made
+    afresh (never a stored result: a timed run, or one into a temporary folder) from the
+    repository's root (where the scene files, and the records they name, are found) and
+    timed whole: the finished :class:`Run` (``seconds``, ``result``, the summary). SystemExit
+    naming the run, its exit code and the end of its stderr when it failed or wrote no
+    summary. ``log``: where its line goes (default nowhere)."""
+    run = execute(Run(name, list(args), os.path.abspath(folder), ranks, cwd=ROOT),
+                  log=log or (lambda message: None), fresh=True)
+    if run.code != 0 or run.result is None:
+        raise SystemExit(f"{name}: the solver failed (exit {run.code}):\n{run.stderr[-2000:]}")
     return run
 
 
