@@ -12,9 +12,7 @@ show) and prints p/q at T_v = 0.02 for each variant.
 
 import argparse
 import csv
-import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -44,22 +42,16 @@ def main():
     study.add_destination(ap, "damping-figure", "damping.png")
     args = ap.parse_args()
     target = os.path.join(study.destination(ap, args), "damping.png")
-    env = study.environment()
     curves = []
     with tempfile.TemporaryDirectory() as tmp:
         for k, (label, extra) in enumerate(VARIANTS):
             out = os.path.join(tmp, str(k))
-            cmd = [sys.executable, "-m", "solver", "-options_file",
-                   os.path.join(ROOT, "cases", "consolidation-m1-q4.opts"), "-mpm_Tv_end", "0.1",
-                   "-mpm_Tv_report", "0.02,0.1", "-mpm_output", out, "-mpm_figures", "0",
-                   "-mpm_progress", "0", *extra]
-            if args.n > 1:
-                cmd = ["mpirun", "-n", str(args.n), *cmd]
-            subprocess.run(cmd, cwd=ROOT, env=env, check=True, stdout=subprocess.DEVNULL)
+            s = study.run_afresh(label, ["-options_file", "cases/consolidation-m1-q4.opts",
+                                         "-mpm_Tv_end", "0.1", "-mpm_Tv_report", "0.02,0.1",
+                                         "-mpm_figures", "0", "-mpm_progress", "0", *extra],
+                                 out, args.n).result
             with open(os.path.join(out, "monitor.csv")) as fh:
                 rows = np.array([[float(v) for v in r] for r in list(csv.reader(fh))[1:]])
-            with open(os.path.join(out, "summary.json")) as fh:
-                s = json.load(fh)
             curves.append((label, rows, s))
             print(f"{label:32s} p/q(T_v = 0.02) = {s['monitor']['p_over_q'][0]:.3f}  "
                   f"(Terzaghi {s['monitor']['terzaghi'][0]:.3f}, compressible water "

@@ -72,7 +72,7 @@ def row(E, k, label, run):
         return {"E": E, "k": k, "variant": label, "failed": run.stderr[-300:]}
     s, m = run.result, run.result["monitor"]
     return {"E": E, "k": k, "variant": label, "Pi": s["regime"]["Pi"],
-            "S": s["mass_scaling"], "steps": s["steps"], "wall_s": s["wall_seconds"],
+            "S": s["mass_scaling"], "steps": s["steps"], "wall_s": study.wall_seconds(s),
             "error_pct": [100 * (a - b) for a, b in zip(m["p_over_q"], m["consistent"])]}
 
 

@@ -1,18 +1,19 @@
 #!/usr/bin/env python3
-"""The footing benchmark (``scripts/benchmark --footing``): a strip footing on layered clay
-at about 1e5 material points to T_v = 1, by the implicit scheme on two ranks, against the FE
-at twice the resolution and against the explicit step's time for the same case.
+"""The footing benchmark: a strip footing on layered clay at about 1e5 material points to
+T_v = 1, by the implicit scheme on two ranks, against the FE at twice the resolution and
+against the explicit step's time for the same case.
 
-    .venv/bin/python scripts/benchmark --footing              # 224 x 112 cells, 100,352 points
-    .venv/bin/python scripts/benchmark --footing --cells 32,16 --ranks 1   # a small check
+    .venv/bin/python scripts/footing-benchmark              # 224 x 112 cells, 100,352 points
+    .venv/bin/python scripts/footing-benchmark --cells 32,16 --ranks 1   # a small check
 
 The scene is cases/consolidation-strip-layered.opts (a 2 m footing on 0.5 m of silty sand
 over 1.5 m of clay, a half model) on ``--cells`` Q4 cells with 2 x 2 points each. Three
 measurements, each in its own process:
 
 1. the implicit run (``-mpm_scheme implicit``, ``mpirun -n RANKS``, no FE reference, no
-   figures): its wall time (the whole command) and its phases, steps, factorizations and
-   solves, and the mean settlement under the load at T_v = 0.01, 0.1, 1;
+   figures), a run of the study harness (``solver.studies.study.execute``) made afresh: its
+   wall time (the whole command) and its phases, steps, factorizations and solves, and the
+   mean settlement under the load at T_v = 0.01, 0.1, 1;
 2. the FE reference (solver/references/biot.py) of the same ground on Q9/Q4 cells as many
    as the run's, twice its nodal resolution, LU by MUMPS, at the same times: the run's
    settlement error against it; and the FE on half those cells against it (its own grid
@@ -28,24 +29,23 @@ Prints a table and writes footing-benchmark.json and .txt into output/studies/be
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
-import shutil
-import subprocess
 import sys
 import tempfile
 import time
-from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+# realpath: the command scripts/NAME is a symlink to this file.
+ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 if __name__ == "__main__":      # a command, not an import: see solver.studies.study.start
-    sys.path.insert(0, str(REPO))
+    sys.path.insert(0, ROOT)
     from solver.studies.study import start
 
     start()
 
-SCENE = REPO / "cases" / "consolidation-strip-layered.opts"
+from solver.studies import study  # noqa: E402
+
+SCENE = os.path.join(ROOT, "cases", "consolidation-strip-layered.opts")
 TV = (0.01, 0.1, 1.0)
 QUIET = ["-mpm_figures", "0", "-mpm_fe_reference", "0", "-mpm_progress", "0"]
 
@@ -56,32 +56,24 @@ def arguments(argv=None):
     ap.add_argument("--ranks", type=int, default=2, help="ranks of the implicit run")
     ap.add_argument("--explicit-seconds", type=float, default=60.0,
                     help="about this many seconds of explicit steps are timed (0: none)")
-    ap.add_argument("--publish", action="store_true", help="write into docs/results/")
-    ap.add_argument("--out", default=None, help="folder for the results")
-    return ap.parse_args(argv)
+    study.add_destination(ap, "benchmark", "footing-benchmark.json and .txt")
+    args = ap.parse_args(argv)
+    args.out = study.destination(ap, args)
+    return args
 
 
-def _solver(args, ranks: int, timeout: float = 3600.0) -> tuple:
-    """(seconds, summary) of ``python -m solver args`` on ``ranks`` ranks."""
-    cmd = [sys.executable, "-m", "solver", "-options_file", str(SCENE), *args]
-    if ranks > 1:
-        cmd = [shutil.which("mpirun"), "-n", str(ranks), *cmd]
-    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
-    out = Path(args[args.index("-mpm_output") + 1])
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True,
-                          timeout=timeout)
-    seconds = time.perf_counter() - t0
-    if proc.returncode != 0:
-        raise SystemExit(f"footing benchmark: the solver failed ({proc.returncode}):\n"
-                         f"{proc.stderr[-2000:]}")
-    return seconds, json.loads((out / "summary.json").read_text())
+def _solver(name, args, folder, ranks: int) -> tuple:
+    """(seconds, summary) of the scene with the options ``args`` on ``ranks`` ranks, run
+    afresh into ``folder`` and timed whole (SystemExit when the solver failed)."""
+    done = study.run_afresh(f"footing benchmark, {name}", ["-options_file", SCENE, *args],
+                            folder, ranks, log=lambda m: print(m, flush=True))
+    return done.seconds, done.result
 
 
 def implicit_run(cells, ranks, folder) -> dict:
     args = ["-mpm_scheme", "implicit", "-mpm_cells", cells, "-mpm_Tv_end", "1",
-            "-mpm_Tv_report", ",".join(map(str, TV)), *QUIET, "-mpm_output", str(folder)]
-    seconds, s = _solver(args, ranks)
+            "-mpm_Tv_report", ",".join(map(str, TV)), *QUIET]
+    seconds, s = _solver("implicit", args, folder, ranks)
     degree = s["consolidation_degree"]
     return {"seconds": seconds, "wall": s["wall"], "points": s["n_points"], "ranks": ranks,
             "implicit": s["implicit"], "Tv": degree["Tv"],
@@ -149,16 +141,15 @@ def mass_scaling(cells) -> float:
 
 def explicit_estimate(cells, budget, folder) -> dict:
     """The explicit step's seconds per step on one rank and its steps to T_v = 1."""
-    probe = folder / "probe"
+    probe = os.path.join(folder, "probe")
     S = mass_scaling(cells)
 
     def run(tv):
         # The scene's mass scaling as its full run picks it (auto depends on the first
         # report, which these short runs move).
         args = ["-mpm_scheme", "explicit", "-mpm_cells", cells, "-mpm_Tv_end", f"{tv:.6g}",
-                "-mpm_Tv_report", f"{tv:.6g}", "-mpm_mass_scaling", repr(S), *QUIET,
-                "-mpm_output", str(probe)]
-        return _solver(args, 1)[1]
+                "-mpm_Tv_report", f"{tv:.6g}", "-mpm_mass_scaling", repr(S), *QUIET]
+        return _solver(f"explicit to T_v = {tv:.3g}", args, probe, 1)[1]
 
     # A short run learns dt and the time per step; a second steps for about ``budget`` s.
     tv = 1e-6
@@ -178,12 +169,8 @@ def explicit_estimate(cells, budget, folder) -> dict:
 def main(argv=None) -> int:
     args = arguments(argv)
     cells = tuple(int(c) for c in args.cells.split(","))
-    folder = Path(args.out or (REPO / ("docs/results" if args.publish
-                                       else "output/studies/benchmark")))
-    folder.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        run = implicit_run(args.cells, args.ranks, tmp / "implicit")
+        run = implicit_run(args.cells, args.ranks, os.path.join(tmp, "implicit"))
         fe = fe_reference(cells)
         half = fe_half(cells)
         explicit = explicit_estimate(args.cells, args.explicit_seconds, tmp) \
@@ -209,17 +196,17 @@ def main(argv=None) -> int:
                      + ", ".join(f"{e:+.3f} %" for e in own) + f" ({half['seconds']:.1f} s)")
     if explicit:
         lines.append("Explicit step (one rank, the scene's mass scaling, "
-                     f"S = {explicit['mass_scaling']:.3g}, dt = {explicit['dt_s']:.3g} s, {explicit['steps_to_Tv1']:.4g} steps to "
-                     f"T_v = 1; {explicit['steps_timed']} steps took {explicit['stepping_s']:.1f}"
+                     f"S = {explicit['mass_scaling']:.3g}, dt = {explicit['dt_s']:.3g} s, "
+                     f"{explicit['steps_to_Tv1']:.4g} steps to T_v = 1; "
+                     f"{explicit['steps_timed']} steps took {explicit['stepping_s']:.1f}"
                      f" s, so about {explicit['extrapolated_s']:.3g} s "
                      f"({explicit['extrapolated_s'] / 3600:.3g} h) in all")
     print("\n".join(lines))
     result = {"cells": list(cells), "implicit": run, "fe": fe, "fe_half": half,
               "errors_pct": errors,
               "explicit": explicit, "Tv": list(TV)}
-    (folder / "footing-benchmark.json").write_text(json.dumps(result, indent=1))
-    (folder / "footing-benchmark.txt").write_text("\n".join(lines) + "\n")
-    print(f"Results in {folder}: footing-benchmark.json, footing-benchmark.txt")
+    study.write_results(os.path.join(args.out, "footing-benchmark"), result, lines)
+    print(f"Results in {args.out}: footing-benchmark.json, footing-benchmark.txt")
     return 0 if all(math.isfinite(e) for e in errors) else 1
 
 

@@ -31,7 +31,6 @@ import csv
 import json
 import math
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -45,6 +44,8 @@ if __name__ == "__main__":      # a command, not an import: see solver.studies.s
     start()
 
 import numpy as np  # noqa: E402
+
+from solver.studies import study as harness  # noqa: E402  (study() below is one grid's)
 
 Q = 10e3            # the load (Pa)
 G_REF = 9.81        # the gravity in which k is defined (m/s2)
@@ -81,10 +82,10 @@ def read(folder):
 
 
 def run(element, cells, folder):
-    """(summary, profile rows) of the scene on ``cells`` ``element`` cells, run as
-    ``python -m solver`` with its output in ``folder``."""
-    subprocess.run([sys.executable, "-m", "solver", *options(element, cells, folder)],
-                   cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    """(summary, profile rows) of the scene on ``cells`` ``element`` cells, a solver run of
+    the study harness with its output in ``folder``."""
+    # options() names the folder last (-mpm_output): the harness names it itself.
+    harness.run_afresh(f"{element} {cells}", options(element, cells, folder)[:-2], folder)
     return read(folder)
 
 
@@ -133,7 +134,7 @@ def study(element, cells, folder):
     reports, worst, l2_each, l2 = errors(summary, rows)
     return {"element": element, "cells": cells, "ny": int(cells.split("x")[1]),
             "points": summary["n_points"], "Tv": reports, "max_pct": worst,
-            "l2_each_pct": l2_each, "l2_pct": l2, "wall_s": summary["wall_seconds"]}
+            "l2_each_pct": l2_each, "l2_pct": l2, "wall_s": harness.wall_seconds(summary)}
 
 
 def order(coarse, fine):

@@ -134,9 +134,9 @@ def probe_stability(keys, lim, info, args) -> None:
     for (key, ratio), run in probes.items():
         if run.result is None or run.code not in (0, 3):
             raise SystemExit(f"error: {run.name}: exit {run.code}: {run.stderr[-300:]}")
-        info[key][f"stable_at_{ratio}"] = bool(run.code == 0 and run.result["stable"])
+        info[key][f"stable_at_{ratio}"] = bool(run.code == 0 and study.stable(run.result))
         if ratio == 0.9 and run.result["steps"]:
-            info[key]["seconds_per_step"] = run.result["wall_seconds"] / run.result["steps"]
+            info[key]["seconds_per_step"] = study.wall_seconds(run.result) / run.result["steps"]
 
 
 def run_to_end(keys, info, args) -> None:
@@ -155,7 +155,7 @@ def run_to_end(keys, info, args) -> None:
         if run is not None and run.result and "monitor" in run.result:
             m = run.result["monitor"]
             r.update(measured=True, steps=run.result["steps"],
-                     wall_s=run.result["wall_seconds"],
+                     wall_s=study.wall_seconds(run.result),
                      error_pct=[100 * (a - b) for a, b in zip(m["p_over_q"], m["consistent"])])
         else:
             r.update(measured=False, steps=r["steps_to_0.5"],

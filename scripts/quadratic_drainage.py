@@ -19,9 +19,7 @@ ten minutes on one core for the defaults; the runs go to a temporary folder.
 """
 
 import argparse
-import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -32,6 +30,8 @@ if __name__ == "__main__":      # a command, not an import: see solver.studies.s
     from solver.studies.study import start
 
     start()
+
+from solver.studies import study  # noqa: E402
 
 REPORTS = (0.05, 0.2, 0.5)
 COMMON = ["-mpm_analysis", "consolidation", "-mpm_ppc", "3", "-mpm_Tv_end", "0.5",
@@ -48,12 +48,9 @@ COLUMN = ["-mpm_size", "0.1,1.0", "-mpm_E", "10e6", "-mpm_nu", "0", "-mpm_porosi
 
 def run(folder, args):
     """The summary and the profile rows (T_v, t, x, y0, p/q, ...) of a run."""
-    cmd = [sys.executable, "-m", "solver", *COMMON, *args, "-mpm_output", folder]
-    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    summary = study.run_afresh(os.path.basename(folder), [*COMMON, *args], folder).result
     import numpy as np
 
-    with open(os.path.join(folder, "summary.json")) as fh:
-        summary = json.load(fh)
     return summary, np.loadtxt(os.path.join(folder, "profiles.csv"), delimiter=",",
                                skiprows=1)
 

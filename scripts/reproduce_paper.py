@@ -28,8 +28,9 @@ if __name__ == "__main__":      # a command, not an import: see solver.studies.s
 
 import numpy as np  # noqa: E402
 
-from solver.eigen.driver import PAPER_ABAQUS_CPE8, PAPER_TABLE3  # noqa: E402
-from solver.io import figures, output  # noqa: E402
+from solver.consolidation import plots as figures  # noqa: E402
+from solver.eigen.compare import PAPER_ABAQUS_CPE8, PAPER_TABLE3  # noqa: E402
+from solver.io import output  # noqa: E402
 from solver.references import analytic  # noqa: E402
 from solver.studies import study  # noqa: E402
 

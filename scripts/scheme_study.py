@@ -87,7 +87,7 @@ def measure(run) -> dict:
     else:
         error = 100 * max(s["profile_l2"]["consistent"])
     name, cells, scheme, ranks = run.name.rsplit(" ", 3)
-    seconds = s["wall_seconds"] - (fe.get("wall_seconds") or 0.0)
+    seconds = study.wall_seconds(s) - (fe.get("wall_seconds") or 0.0)
     return {"scene": name, "cells": cells, "scheme": scheme, "ranks": int(ranks),
             "points": s["n_points"], "error_pct_of_q": error, "seconds": seconds,
             "Pi": s["regime"].get("Pi"), "Pi_S": s["regime"].get("Pi_S"), "steps": s["steps"]}

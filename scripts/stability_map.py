@@ -74,9 +74,9 @@ def probe(scene, ratio, damping, limits, cv, steps, runs_dir):
 def verdict(run):
     """True for a stable run, False for a blown-up one (exit 3); any other end stops the
     study."""
-    if run.code == 0 and run.result and run.result.get("stable"):
+    if run.code == 0 and run.result and study.stable(run.result):
         return True
-    if run.code == 3 and run.result and run.result.get("stable") is False:
+    if run.code == 3 and run.result and not study.stable(run.result):
         return False
     raise SystemExit(f"error: {run.name}: exit {run.code}: {run.stderr[-300:]}")
 

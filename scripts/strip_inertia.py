@@ -23,9 +23,7 @@ cells, 8,192 points) about 10 minutes.
 """
 
 import argparse
-import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -37,6 +35,8 @@ if __name__ == "__main__":      # a command, not an import: see solver.studies.s
 
     start()
 
+from solver.studies import study  # noqa: E402
+
 FE_CELLS = (64, 32)   # within 0.05 % of 128 x 64 in the settlement at T_v = 0.01
 REFERENCE = 100.0     # --bound: the inertia-free run has S / REFERENCE
 
@@ -44,14 +44,10 @@ REFERENCE = 100.0     # --bound: the inertia-free run has S / REFERENCE
 def run(scene, folder, extra=(), ranks=1) -> dict:
     """The summary of cases/consolidation-``scene``.opts with the options ``extra``, run on
     ``ranks`` ranks into ``folder``."""
-    cmd = [sys.executable, "-m", "solver", "-options_file",
-           os.path.join(ROOT, "cases", f"consolidation-{scene}.opts"), "-mpm_figures", "0",
-           "-mpm_progress", "0", "-mpm_output", folder, *extra]
-    if ranks > 1:
-        cmd = ["mpirun", "-n", str(ranks)] + cmd
-    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(folder, "summary.json")) as fh:
-        return json.load(fh)
+    return study.run_afresh(os.path.basename(folder),
+                            ["-options_file", f"cases/consolidation-{scene}.opts",
+                             "-mpm_figures", "0", "-mpm_progress", "0", *extra],
+                            folder, ranks).result
 
 
 def fe_body(o):
@@ -98,7 +94,7 @@ def compare(s, folder, reports) -> dict:
     xy = prof[reports[0]][:, 2:4]
     fe = biot.solve(PETSc.COMM_SELF, fe_body(o), times, xy, cells=FE_CELLS)
     out = {"S": s["mass_scaling"], "estimate_pct": 100 * s["regime"]["wave_error"],
-           "wall_s": s["wall_seconds"], "steps": s["steps"], "reports": {}}
+           "wall_s": study.wall_seconds(s), "steps": s["steps"], "reports": {}}
     for k, tv in enumerate(reports):
         i = len(grid) + k
         mine = np.interp(t_rep[k], rows[:, 0], rows[:, 2])

@@ -14,9 +14,7 @@ from the previous grid (%), the clay's settlement at T_v = 1e-6 and the run's at
 """
 
 import argparse
-import json
 import os
-import subprocess
 import sys
 import tempfile
 
@@ -27,6 +25,8 @@ if __name__ == "__main__":      # a command, not an import: see solver.studies.s
     from solver.studies.study import start
 
     start()
+
+from solver.studies import study  # noqa: E402
 
 SCENE = os.path.join(ROOT, "cases", "consolidation-strip.opts")
 
@@ -39,13 +39,10 @@ def run(cells, ranks, folder, extra=()) -> dict:
     """The summary of the scene on ``cells`` ("NXxNY") on ``ranks`` ranks, with the options
     ``extra``."""
     nx, ny = cells.split("x")
-    cmd = [sys.executable, "-m", "solver", "-options_file", SCENE, "-mpm_cells", f"{nx},{ny}",
-           "-mpm_figures", "0", "-mpm_progress", "0", "-mpm_output", folder, *extra]
-    if ranks > 1:
-        cmd = ["mpirun", "-n", str(ranks)] + cmd
-    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
-    with open(os.path.join(folder, "summary.json")) as fh:
-        return json.load(fh)
+    return study.run_afresh(os.path.basename(folder),
+                            ["-options_file", SCENE, "-mpm_cells", f"{nx},{ny}",
+                             "-mpm_figures", "0", "-mpm_progress", "0", *extra],
+                            folder, ranks).result
 
 
 def main():
@@ -70,7 +67,7 @@ def main():
                   f"{change[1]:>9s}{1e3 * c['settlement_last_m']:11.5f}"
                   f"{100 * (c['settlement_last_m'] / c['undrained_m'] - 1):+8.2f}%"
                   f"{1e3 * e['settlement_last_m']:11.5f}"
-                  f"{e['error_final_pct']:+8.2f}%{s['wall_seconds']:8.1f}")
+                  f"{e['error_final_pct']:+8.2f}%{study.wall_seconds(s):8.1f}")
             before = ends
 
 

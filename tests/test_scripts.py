@@ -1,6 +1,9 @@
 """The study scripts as modules and as commands: ``scripts/<name>.py`` holds a script's code
 and imports without running anything; the command ``scripts/<name with hyphens>`` is a
-relative symlink to it, so the commands in the README and docs stay as they were."""
+relative symlink to it, so the commands in the README and docs stay as they were. Every
+script runs in the study harness's frame (solver/studies/study.py): its start-up, its
+``--out``/``--publish`` and its solver runs are the harness's, and each benchmark is a
+command of its own."""
 
 import importlib
 import os

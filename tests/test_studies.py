@@ -1,8 +1,10 @@
-"""The study machinery: -mpm_target_error against the shipped work-precision data, the
-stability map's blow-up detection against the discrete limit, the batch runner, and the
-outputs the study scripts read (profiles.csv, -mpm_stability_analysis 0), and the study
-scripts themselves: executables from a shell whose python3 lacks petsc4py, help for every
-option, results under output/ unless published, convergence charts."""
+"""The study machinery: -mpm_target_error against the shipped work-precision data (and
+those data against what scripts/convergence-study makes), the stability map's blow-up
+detection against the discrete limit, the batch runner (which keeps a finished run of any
+analysis), and the outputs the study scripts read (profiles.csv, -mpm_stability_analysis
+0), and the study scripts themselves: executables from a shell whose python3 lacks
+petsc4py, help for every option, results under output/ unless published, convergence
+charts."""
 
 from __future__ import annotations
 
@@ -34,9 +36,9 @@ def test_shipped_data_are_measurements():
     runs = [r for r in data["runs"] if r["stable"]]
     assert len(runs) >= 8
     for r in runs:
-        # The measure judges everything a run reports (issue 22, item 6): the largest of
-        # the monitor's error, the profile's L2 (in % of q) and both U's errors, over every
-        # report time of the study.
+        # The measure judges everything a run reports: the largest of the monitor's error,
+        # the profile's L2 (in % of q) and both U's errors, over every report time of the
+        # study.
         assert sorted(r["by_tv"]) == ["0.02", "0.2", "0.5", "1"]
         largest = max(max(abs(mon), 100 * l2, abs(us), abs(up))
                       for mon, l2, us, up in r["by_tv"].values())
@@ -89,9 +91,9 @@ def _largest_error(s):
 
 
 def test_target_error_says_met_only_when_measured_met(cli, tmp_path):
-    """Issue 22, item 6: data that claim 0.5 % for Q4 1 x 10 with one point per cell (whose
-    U from the settlement is 30 % off at T_v = 0.02): the pick trusts them, the run's own
-    check does not: NOT met, naming the worst quantity."""
+    """Data that claim 0.5 % for Q4 1 x 10 with one point per cell (whose U from the
+    settlement is 30 % off at T_v = 0.02): the pick trusts them, the run's own check does
+    not: NOT met, naming the worst quantity."""
     data = _data()
     run = next(r for r in data["runs"] if r["element"] == "q4" and r["cells"] == [1, 10]
                and r["ppc"] == 1)
@@ -106,7 +108,7 @@ def test_target_error_says_met_only_when_measured_met(cli, tmp_path):
     assert s["ppc"] == 1 and s["cells"] == [1, 10]
     largest = _largest_error(s)
     worst_us = max(abs(e) for e in s["consolidation_degree"]["error_settlement_consistent_pct"])
-    assert largest == worst_us > 10                # U from the settlement, as the issue saw
+    assert largest == worst_us > 10                # U from the settlement is the worst
     assert s["target"]["met"] is False
     assert s["target"]["errors_pct"]["U_s"]["error_pct"] == pytest.approx(worst_us, rel=1e-12)
     assert (f"Target error 1 %: NOT met: largest error {largest:.2f} % (U_s at T_v = 0.02)"
@@ -193,6 +195,101 @@ def test_batch_runner_reuses_identical_runs_only(tmp_path):
     assert "stored" not in logged[1] and len(other.result["frequencies_hz"]["jacobi"]) == 3
 
 
+# -- the harness keeps what finished, whatever the analysis ------------------------------
+SITE = ["-options_file", "cases/dynamic-layers.opts", "-mpm_figures", "0", "-mpm_progress",
+        "0"]
+FINISHED = {"analysis": "dynamic", "run_id": "r1", "completed": True, "steps": 92000,
+            "wall": {"setup_s": 1.0, "stepping_s": 9.5, "reporting_s": 1.5, "total_s": 12.0}}
+
+
+def _failed(kind, code):
+    return dict(FINISHED, completed=False, steps=500, error={
+        "kind": kind, "stage": "stepping", "exit_code": code, "message": f"a {kind} end"})
+
+
+@pytest.mark.parametrize("summary, reused", [
+    (FINISHED, True),
+    (_failed("numerical", 3), True),           # a blow-up comes again: it is the result
+    (_failed("interrupted", 4), False),
+    (_failed("input", 2), False),
+    (_failed("internal", 5), False),
+    ({k: v for k, v in FINISHED.items() if k != "completed"}, False),   # says nothing
+], ids=["completed", "numerical", "interrupted", "input", "internal", "unsaid"])
+def test_the_harness_reuses_a_finished_run_of_any_analysis(summary, reused, tmp_path,
+                                                           monkeypatch):
+    """A dynamic run's folder as the harness leaves it (summary.json, and args.json with its
+    arguments): execute() takes the stored summary of a completed run, or of one that blew
+    up, without launching anything; it runs again one that was stopped or failed for
+    another reason, one whose arguments differ, and any with fresh=True (a timed run)."""
+    folder = tmp_path / "site"
+    folder.mkdir()
+    (folder / "summary.json").write_text(json.dumps(summary))
+    code = (summary.get("error") or {}).get("exit_code", 0)
+    (folder / "args.json").write_text(json.dumps({"args": SITE, "ranks": 1, "code": code,
+                                                  "seconds": 12.5}))
+    launched = []
+
+    def launch(cmd, **kw):
+        launched.append(cmd)
+        return subprocess.CompletedProcess(cmd, 0, "", "")
+
+    monkeypatch.setattr(study.subprocess, "run", launch)
+    logged = []
+    run = study.execute(study.Run("site", SITE, str(folder)), log=logged.append)
+    assert run.reused is reused and bool(launched) is not reused
+    if reused:
+        assert run.result == summary and (run.code, run.seconds) == (code, 12.5)
+        assert logged == [f"  site: stored result (exit {code})"]
+    else:
+        assert launched[0][-len(SITE) - 2:] == [*SITE, "-mpm_output", str(folder)]
+    launched.clear()
+    other = study.execute(study.Run("site", SITE + ["-mpm_t_end", "1"], str(folder)),
+                          log=logged.append)
+    assert launched and not other.reused
+    launched.clear()
+    (folder / "args.json").write_text(json.dumps({"args": SITE, "ranks": 1, "code": code}))
+    again = study.execute(study.Run("site", SITE, str(folder)), log=logged.append,
+                          fresh=True)
+    assert launched and not again.reused
+
+
+def test_the_shipped_work_precision_data_are_what_the_command_makes(tmp_path, monkeypatch):
+    """solver/data/work_precision.json, which -mpm_target_error reads, is made by
+    ``scripts/convergence-study --publish``; ``--check`` makes its two cheapest runs again
+    (Q4 1 x 10 with one point per cell, Q9 1 x 5: about 2 s each) and compares them and the
+    whole file with what the command makes of them: a real check, which a file that no
+    longer holds fails, naming each difference."""
+    runs_dir = tmp_path / "runs"
+    res = subprocess.run([PYTHON, str(REPO / "scripts" / "convergence-study"), "--check",
+                          "--runs", str(runs_dir)], capture_output=True, text=True,
+                         timeout=120, env=clean_env())
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "solver/data/work_precision.json: holds (26 runs" in res.stdout
+    # The same runs, reused (the check left them finished), against files that do not hold.
+    mod = script_module("convergence_study")
+    monkeypatch.chdir(REPO)
+    args = mod.arguments(["--check", "--runs", str(runs_dir)])
+    assert args.data == workprecision.DEFAULT
+    runs = [r for r in mod.make_runs(args) if r.name in mod.CHECKED]
+    assert len(runs) == 2
+    logged = []
+    study.execute_all(runs, log=logged.append)
+    assert len(logged) == 2 and all("stored result" in m for m in logged)
+    assert mod.differences(_data(), runs) == []
+    bad = _data()
+    row = next(r for r in bad["runs"] if r["element"] == "q4" and r["ppc"] == 1
+               and r["cells"] == [1, 10])
+    row["steps"] += 1                               # not what the run gives
+    bad["orders"]["q9"]["monitor_consistent"] = 1.0     # not the fit of its own rows
+    bad["runs"][-1]["measure"] /= 2                 # not the largest of its errors
+    del bad["runs"][0]                              # a run of the study missing
+    found = mod.differences(bad, runs)
+    assert any(line.startswith("q4-1x10-ppc1-dt0.5: steps: stored 53535") for line in found)
+    assert any(line.startswith("orders.q9.monitor_consistent: stored 1.0") for line in found)
+    assert any("is not the largest of its errors" in line for line in found)
+    assert any(line.startswith("runs: stored [] beyond the study's") for line in found)
+
+
 def test_stability_map_brackets_the_discrete_limit(tmp_path):
     code, out, err = run_command(
         [PYTHON, REPO / "scripts" / "stability-map", "--scenes", "m1-q4", "--ratios", "0.5,1.5",
@@ -227,7 +324,7 @@ def test_one_point_per_q4_cell_runs_at_the_drag_limit(cli):
     res = cli(["-mpm_ppc", "1", "-mpm_damping", "0", "-mpm_stability_analysis", "0",
                "-mpm_dt", repr(0.99 * lim["discrete"])] + SHORT,
               options_file="consolidation-m1-q4")
-    assert check_ok(res)["stable"] is True
+    assert study.stable(check_ok(res))      # completed, no blow-up
 
 
 # -- the study scripts as executables ---------------------------------------------------
