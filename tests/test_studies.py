@@ -242,6 +242,8 @@ def test_the_harness_reuses_a_finished_run_of_any_analysis(summary, reused, tmp_
         assert logged == [f"  site: stored result (exit {code})"]
     else:
         assert launched[0][-len(SITE) - 2:] == [*SITE, "-mpm_output", str(folder)]
+        # The launch wrote no summary: the stored one is not taken for its own.
+        assert run.result is None and not (folder / "summary.json").exists()
     launched.clear()
     other = study.execute(study.Run("site", SITE + ["-mpm_t_end", "1"], str(folder)),
                           log=logged.append)

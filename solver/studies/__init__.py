@@ -1,7 +1,9 @@
-"""What the study scripts in scripts/ share: batches of solver runs, each a ``python -m
-solver`` process, and where their results go.
+"""What the study scripts in scripts/ share, their run frame: their start-up, where their
+results go, and their solver runs, each a ``python -m solver`` process.
 
-- ``study``: batches of solver runs for the scripts, and their destinations.
+- ``study``: the scripts' start-up (``start``), their destinations (``--out``,
+  ``--publish``), their solver runs (batches that keep what finished, fresh timed runs) and
+  what the benchmark commands share (the machine, the report).
 
 May import: dynamic, consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
 references, model, common.

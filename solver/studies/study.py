@@ -153,7 +153,8 @@ def _done(run: Run):
 
 
 def execute(run: Run, log=print, fresh=False) -> Run:
-    """Run one job (or reuse its stored result) and load its summary into ``run.result``."""
+    """Run one job (or reuse its stored result, unless ``fresh``) and load its summary into
+    ``run.result`` (None when the run wrote none)."""
     cached = None if fresh else _done(run)
     if cached:
         run.result, run.code, run.seconds = cached
@@ -161,6 +162,9 @@ def execute(run: Run, log=print, fresh=False) -> Run:
         log(f"  {run.name}: stored result (exit {run.code})")
         return run
     os.makedirs(run.folder, exist_ok=True)
+    for stale in (run.summary_path, os.path.join(run.folder, "args.json")):
+        if os.path.exists(stale):      # a run that wrote none must not pass for its own
+            os.remove(stale)
     t0 = time.perf_counter()
     proc = subprocess.run(run.command(), env=environment(), capture_output=True, text=True,
                           cwd=run.cwd)
