@@ -8,7 +8,7 @@ Writes --outputs times of a body of --points points with the seven fields a cons
 run writes (output.XdmfSeries, as the run does) into a temporary folder, and prints the
 wall time and the bytes written to the index per block of a tenth of the outputs: flat when
 each output appends its entry to the index. --whole rewrites the index whole after every
-output instead, as the solver did before (issue 22: its time per output grows with the
+output instead, as the solver did before (its time per output grows with the
 outputs). Writes nothing that stays; times depend on the disk and on what else runs.
 """
 
