@@ -113,16 +113,12 @@ def fe_half(cells):
 
 
 def _scene(cells):
-    """(options, ground, body, loading) of the scene on ``cells`` ('NX,NY')."""
-    from solver.io import options
-    from solver.io.scenefile import pairs
+    """(options, ground, body, loading) of the scene on ``cells`` ('NX,NY'), read as the
+    solver reads it."""
     from solver.model.scene import Body, Loading
     from solver.model.soil import Ground
 
-    values = {k[4:]: v for k, v in pairs(str(SCENE))}
-    values.pop("output", None)
-    values["cells"] = cells
-    p = options.from_mapping(values)
+    p = study.read_scene(SCENE, ["-mpm_cells", cells])
     return p, Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
 
 
