@@ -86,26 +86,16 @@ def fixed_dt(p, grid) -> float:
     return min(1e-6, 0.25 * spacing / Soil.from_options(p).wave_speeds()["c1"])
 
 
-def _migrate(model):
-    """The points' migration after a step, as the run calls it (``TwoPhase.migrate``; the
-    step of before it, ``migrate_if_needed`` with the loop's flags)."""
-    if hasattr(model, "migrate"):
-        return model.migrate
-    return lambda: model.migrate_if_needed((0, 0))
-
-
 def time_steps(model, scheme, dt: float, cfg: dict, mpi):
     """Wall and CPU seconds of each of ``cfg['repeats']`` runs of ``cfg['steps']`` steps
-    (the step and the migration, as the run calls them), after ``cfg['warmup']`` untimed
+    (``step``, then ``migrate``, as the run calls them), after ``cfg['warmup']`` untimed
     steps; both the slowest rank's. ``dt`` in s."""
     from mpi4py import MPI
-
-    migrate = _migrate(model)
 
     def run(nsteps):
         for _ in range(nsteps):
             model.step(dt, 1.0, scheme.damping, scheme.flip)
-            migrate()
+            model.migrate()
 
     run(cfg["warmup"])
     times, cpu = [], []
