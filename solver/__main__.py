@@ -188,20 +188,12 @@ def _run(argv, origins, scene_analysis, comm) -> int:
         for note in params.notes + moved:
             PETSc.Sys.Print(f"Note: {note}", comm=comm)
         check_output(params.output, params.summary, comm)
-        if params.analysis == "eigen":
-            from .eigen import driver as eigen
+        # Each analysis's driver: run(options, comm) -> 0, or a failure raised after its
+        # record has written the summary (solver.run.record).
+        import importlib
 
-            eigen.run(params, comm)
-        elif params.analysis == "dynamic":
-            from .dynamic import driver as dynamic
-
-            dynamic.run(params, comm)
-        else:
-            from .consolidation import driver as consolidation
-
-            code = consolidation.run(params, comm)
-            if code:
-                return code
+        driver = importlib.import_module(f".{params.analysis}.driver", __package__)
+        return driver.run(params, comm)
     except Interrupted as exc:
         if debug:
             traceback.print_exc()

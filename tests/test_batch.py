@@ -1,4 +1,4 @@
-"""Edges a batch user hits (issue 13): where the results cannot go, a reader of stdout that
+"""Edges a batch user hits: where the results cannot go, a reader of stdout that
 goes away, an unexpected failure late in a run, eigen failures, one scene file for both
 analyses and a shorter run, the progress lines, and where the study scripts write.
 
@@ -201,9 +201,9 @@ def test_failure_on_some_ranks_inside_the_stepping_aborts_rather_than_hangs(tmp_
 def test_internal_error_traceback_only_with_debug(inject, tmp_path):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_figures", "0", "-mpm_output", out]
-    code, _, stderr, _ = inject("solver.eigen.driver._print_table", args + ["-mpm_debug"])
+    code, _, stderr, _ = inject("solver.eigen.compare.print_table", args + ["-mpm_debug"])
     assert code == 5 and "Traceback" in stderr and "MemoryError: injected" in stderr
-    code, _, stderr, _ = inject("solver.eigen.driver._print_table", args)
+    code, _, stderr, _ = inject("solver.eigen.compare.print_table", args)
     assert code == 5 and stderr.count("\n") == 1 and "Traceback" not in stderr
     s = _summary(out)
     assert s["completed"] is False and s["error"]["kind"] == "internal"
@@ -215,7 +215,7 @@ def test_internal_error_traceback_only_with_debug(inject, tmp_path):
 def test_eigen_failure_in_the_writing_is_agreed_by_every_rank(inject, tmp_path, ranks):
     out = tmp_path / "out"
     args = ["-options_file", CASES / "eigen-q4.opts", "-mpm_output", out]
-    code, _, stderr, _ = inject("solver.eigen.driver.mode_figure", args, ranks)
+    code, _, stderr, _ = inject("solver.eigen.plots.mode_figure", args, ranks)
     assert code == 5 and "MPI_ABORT" not in stderr, stderr
     assert len(_error_lines(stderr)) == 1
     assert _summary(out)["error"]["exit_code"] == 5
@@ -374,7 +374,7 @@ ALL_SCRIPTS = sorted(p.name for p in (REPO / "scripts").iterdir()
 
 @pytest.mark.parametrize("name", ALL_SCRIPTS)
 def test_every_help_line_is_whole(name):
-    """Issue 22, item 9: --help's description is the docstring's whole first paragraph
+    """--help's description is the docstring's whole first paragraph
     (damping-study and permeability-map stopped mid-sentence) and no option's help ends
     on a dangling word."""
     res = subprocess.run([sys.executable, str(REPO / "scripts" / name), "--help"],

@@ -286,7 +286,7 @@ PAPER_SCENES = [("q4", "1,10", 2), ("q8", "1,10", 3), ("q9", "1,10", 3), ("q4", 
 
 
 def test_refined_grids_take_the_patch_and_keep_the_limit():
-    """Issue 22, item 12: the dense analysis of the whole grid stays for the paper's scenes
+    """The dense analysis of the whole grid stays for the paper's scenes
     (their limits unchanged) and refined Q4 grids (5 x 50 and beyond: 14-18 s at 8 x 80
     before) take the 4 x 10 patch; its limit is the whole grid's, computed here densely on
     5 x 50 cells (the explicit drag's scheme of the paper's scenes)."""

@@ -1,4 +1,4 @@
-"""``-mpm_analysis dynamic`` as a user runs it (issue 30): the scenes against their own
+"""``-mpm_analysis dynamic`` as a user runs it: the scenes against their own
 references, computed here from the closed forms (the layer's resonances (2n - 1) Vs / 4H,
 the exact response of the layer on rock, the undrained speed and B q of the saturated
 column, Terzaghi with compressible water); one and two ranks; a restart in the middle of a

@@ -1,4 +1,4 @@
-"""The shaken body (solver/stepping/onephase.py, issue 30) against the exact site response
+"""The shaken body (solver/stepping/onephase.py) against the exact site response
 (solver/references/site.py, d'Alembert's reflections) and the Jacobi eigenfrequencies of the
 same column."""
 

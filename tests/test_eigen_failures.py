@@ -206,7 +206,7 @@ def _table(stdout):
 
 
 def test_free_body_names_its_rigid_modes(cli):
-    """No support at all (issue 22, item 8): a plane body has exactly three rigid-body
+    """No support at all: a plane body has exactly three rigid-body
     motions (two translations, one rotation), reported as such, without NumPy's warnings;
     the fixed-base rod is no reference for it, and the flexible modes still agree."""
     res = cli(["-mpm_bc_bottom", "none", "-mpm_bc_left", "none", "-mpm_bc_right", "none"],
@@ -246,9 +246,9 @@ def test_tall_column_prints_four_digits(cli):
 
 
 def test_mode_figure_has_a_colour_bar_and_the_rod_only_where_it_applies(cli, monkeypatch):
-    """Issue 22, item 11: modes.png colours the grid by |u| over the mode's largest, with a
+    """modes.png colours the grid by |u| over the mode's largest, with a
     colour bar from 0 to 1; the rod's dashed shape is drawn on a fixed-base column only."""
-    from solver.eigen import driver as eigen
+    from solver.eigen import plots as eigen
 
     figs = []
     real = eigen.mode_figure

@@ -1,5 +1,5 @@
-"""A scene without a closed form set against its own finite-element solution (issue 27, items
-3 and 5): the strip footing of cases/ solved again by solver/references/biot.py, its report (the
+"""A scene without a closed form set against its own finite-element solution: the
+strip footing of cases/ solved again by solver/references/biot.py, its report (the
 settlement at the axis and the mean under the load, the monitor point's excess pore
 pressure, the column under the axis, the trough) and its files.
 

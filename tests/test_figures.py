@@ -96,7 +96,7 @@ def test_pressure_field_uses_a_perceptual_map_in_kpa():
 @pytest.mark.parametrize("t_end, unit, seconds", [(3.9, "s", 1.0), (3.644e4, "h", 3600.0),
                                                    (8e5, "days", 86400.0)])
 def test_settlement_time_in_the_scenes_own_unit(t_end, unit, seconds):
-    """Issue 22, item 11: settlement (mm, downwards) against time in s, h or days by the run's
+    """Settlement (mm, downwards) against time in s, h or days by the run's
     length, log time axis; the references are s_inf U (classic) and s0 + (s_inf - s0) U of
     the compressible water, against Terzaghi's U summed and integrated independently
     (test_outputs.terzaghi_mean)."""
@@ -144,7 +144,7 @@ def test_pressure_field_of_a_wide_body_stacks_its_panels():
 
 def test_profile_under_the_axis_names_each_time_and_draws_the_fe():
     """A scene without a closed form: the column under the axis at each T_v, named in the
-    legend, with the FE's profile in the same colour (issue 27: the overlay of every
+    legend, with the FE's profile in the same colour (the overlay of every
     column had no labels and no time legend)."""
     plt = output.pyplot()
     y = np.linspace(0.05, 0.95, 10)

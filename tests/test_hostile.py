@@ -225,7 +225,7 @@ def test_sigint_and_timed_checkpoints(tmp_path):
 
 @pytest.mark.parametrize("top", ["xy", "y"])
 def test_load_on_a_fixed_top_is_refused(cli, tmp_path, top):
-    """A surface load on a top held vertically (issue 22, item 7): the support would carry
+    """A surface load on a top held vertically: the support would carry
     it and U_p = 1 would read as consolidation; one line naming the option, nothing written."""
     out = tmp_path / "out"
     res = cli(["-mpm_bc_top", top, "-mpm_output", str(out)], options_file="consolidation-m1-q4")

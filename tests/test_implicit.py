@@ -1,4 +1,4 @@
-"""The implicit scheme (-mpm_scheme implicit, issue 29): quasi-static u-p Biot on the material
+"""The implicit scheme (-mpm_scheme implicit): quasi-static u-p Biot on the material
 points, against each scene's own reference; the undrained start with and without the pressure
 projection; second order in time; ranks, restarts, options and the automatic choice."""
 

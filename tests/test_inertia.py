@@ -1,4 +1,4 @@
-"""Implicit drag, mass scaling, the inertia regime and the up-front step count (issue 10).
+"""Implicit drag, mass scaling, the inertia regime and the up-front step count.
 
 References are independent of the solver: Darcy's law, Terzaghi's series with compressible
 water (test_consolidation.terzaghi), closed forms of the time scales written here, and the
@@ -310,7 +310,7 @@ def test_bad_values(cli, tmp_path, option, value):
     assert not out.exists()
 
 
-# -- a strip footing: the slowest wave is the body's lowest mode (issue 27) ----------------
+# -- a strip footing: the slowest wave is the body's lowest mode ----------------
 STRIP = QUIET + ["-mpm_cells", "16,8", "-mpm_Tv_end", "0.05"]
 
 

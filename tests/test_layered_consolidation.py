@@ -1,4 +1,4 @@
-"""Consolidation of layered ground (issue 21, item 2): each material point carries its layer's
+"""Consolidation of layered ground: each material point carries its layer's
 material through the step, the stability analysis, the static ends, the checkpoint and the
 field output, and the run is compared with the layered column's own reference.
 

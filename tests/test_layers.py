@@ -1,4 +1,4 @@
-"""Layered soils in the eigen analysis (issue 21): the options, the ground, the per-point
+"""Layered soils in the eigen analysis: the options, the ground, the per-point
 material of the model, the layered-rod reference, and the scene cases/eigen-layered.opts.
 
 The reference of the done-when test is the layered 1D rod of :mod:`solver.references.layered` (a
@@ -129,10 +129,10 @@ def test_bad_layers_exit_2_with_one_line(cli, tmp_path, args, message):
 
 def test_single_layer_consolidation_is_accepted():
     """-mpm_layers H alone is the column as without it: consolidation's checks pass."""
-    from solver.consolidation.driver import _validate
+    from solver.consolidation.setup import validate
 
     p = scene_options(layers="1")
-    assert _validate(p)[0] == p
+    assert validate(p)[0] == p
 
 
 # -- the model: per-point material -----------------------------------------------------------
@@ -196,11 +196,11 @@ def test_points_carry_their_layers_mass_and_stiffness():
         destroy(*reversed(made))
 
 
-# -- the scene: the done-when of issue 21 ------------------------------------------------------
+# -- the scene: the layered scene's checks ------------------------------------------------------
 def test_three_layer_column_matches_the_layered_rod(cli, monkeypatch):
     """Q9, 1 x 30 cells: the first three frequencies within 0.5 % of the layered rod,
     Jacobi and SLEPc alike; the figure draws the interfaces and the layered rod's modes."""
-    from solver.eigen import driver as eigen
+    from solver.eigen import plots as eigen
 
     figs = []
     real = eigen.mode_figure

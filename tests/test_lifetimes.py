@@ -1,4 +1,4 @@
-"""Every PETSc object the set-up makes has an owner that destroys it (issue 12)."""
+"""Every PETSc object the set-up makes has an owner that destroys it."""
 
 from __future__ import annotations
 

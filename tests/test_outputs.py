@@ -122,7 +122,7 @@ def test_settlement_and_degree_against_terzaghi(m1):
 
 
 def test_files_names_every_file_written(m1):
-    """Issue 22, item 9: the summary's files name every file in the output folder, the
+    """The summary's files name every file in the output folder, the
     field series' HDF5 files included, and nothing that is not there."""
     s, out, res = m1
     line = next(ln for ln in res.stdout.splitlines() if ln.startswith("Results in "))
@@ -364,7 +364,7 @@ def test_xdmf_series_appends_in_constant_work_per_output(tmp_path):
     index in place (the file is never replaced: same inode) and the index grows by the
     same number of bytes per output (its Time value aside); the index on disk is the whole
     series, which meshio reads back, first and last step included. Whole rewrites made
-    the cost grow with the outputs (issue 22: 1,181 outputs took 100 s)."""
+    the cost grow with the outputs (1,181 outputs once took 100 s)."""
     from solver.io import output
 
     path = tmp_path / "pts.xdmf"

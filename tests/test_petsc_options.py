@@ -1,4 +1,4 @@
-"""The options as PETSc options (issue 12): -options_left reports only what nobody read,
+"""The options as PETSc options: -options_left reports only what nobody read,
 -help/--help show the values in effect and run nothing, the parameters are frozen once read,
 the FE reference solve has its own prefix, and the printed SLEPc label is the solver used."""
 
@@ -72,7 +72,7 @@ def test_help_shows_values_in_effect_and_runs_nothing(tmp_path, flag):
 
 
 def test_help_shows_our_table_first_and_petscs_only_when_asked(tmp_path):
-    """Issue 22, item 9: -help starts with the option table (PETSc's 60 lines of generic
+    """-help starts with the option table (PETSc's 60 lines of generic
     help came first); -help petsc adds PETSc's, and the table still follows."""
     code, out, err = _solver(["-help"], tmp_path)
     assert code == 0, err[-3000:]

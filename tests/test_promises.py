@@ -1,4 +1,4 @@
-"""What the command line promises and the run keeps (issue 28, section 3): each check runs
+"""What the command line promises and the run keeps: each check runs
 the command and asserts its exit code, its one-line message and the files it writes."""
 
 from __future__ import annotations

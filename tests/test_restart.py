@@ -1,4 +1,4 @@
-"""Issue 22, items 1-4: restarts that never mix two runs, the restart hint that works alone,
+"""Restarts that never mix two runs, the restart hint that works alone,
 signals at any point of a run, and the last state of every run written.
 
 A checkpoint carries its run (id and options): ``-mpm_restart CK`` alone continues it;
@@ -104,7 +104,7 @@ def test_restart_refuses_options_that_change_the_run(cli, tmp_path, how):
 
 
 def test_restart_never_mixes_two_runs(cli, tmp_path):
-    """Issue 22's case: a 20 kPa run finished in X; a 10 kPa run stopped with a checkpoint
+    """The reported case: a 20 kPa run finished in X; a 10 kPa run stopped with a checkpoint
     elsewhere; restarting the 10 kPa run into X is refused (nothing written), and with
     -mpm_overwrite its series in X holds its own times only."""
     x = tmp_path / "X"
@@ -260,7 +260,7 @@ def test_signal_in_the_eigen_analysis(cli, tmp_path, monkeypatch):
 
 
 def test_ctrl_c_in_the_stability_analysis_of_m3(tmp_path):
-    """Issue 22's case end to end: Ctrl-C (SIGINT) while M3-Q4's stability analysis runs,
+    """The reported case end to end: Ctrl-C (SIGINT) while M3-Q4's stability analysis runs,
     then SIGTERM in the steps; both exit 4 with one line and no traceback, and the
     second's printed hint, run alone, finishes the run."""
     out = tmp_path / "m3"

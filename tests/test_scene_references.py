@@ -1,4 +1,4 @@
-"""Each consolidation scene is compared with its own reference, or with none (issue 21, item 1).
+"""Each consolidation scene is compared with its own reference, or with none.
 
 The references are the uniform column's solutions for any set of drained ends and a linear
 initial excess (``analytic.column_pressure``, tested against finite elements in

@@ -1,4 +1,4 @@
-"""Water that the step keeps (issue 27, items 1 and 3): the Darcy flux across a porosity jump,
+"""Water that the step keeps: the Darcy flux across a porosity jump,
 and drained sides under gravity held at the water table's hydrostatic pressure.
 
 References: the layered column's exact modes (``layered.LayeredColumn``, tested against

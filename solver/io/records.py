@@ -1,4 +1,4 @@
-"""Recorded base motions (issue 30): a CSV of two columns, t (s) and a (m/s2), or a PEER
+"""Recorded base motions: a CSV of two columns, t (s) and a (m/s2), or a PEER
 NGA ``.AT2`` file (accelerations in g, a fixed time step), read and checked."""
 
 from __future__ import annotations

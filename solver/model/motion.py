@@ -1,4 +1,4 @@
-"""Base motions (issue 30): analytic wavelets, the form of ``-mpm_base_motion`` and a motion
+"""Base motions: analytic wavelets, the form of ``-mpm_base_motion`` and a motion
 as functions of time (a record linear between its samples, zero after its end).
 Accelerations in m/s2, times in s."""
 

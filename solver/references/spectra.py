@@ -1,4 +1,4 @@
-"""Spectra of acceleration histories (issue 30): Fourier amplitudes, Konno-Ohmachi smoothing
+"""Spectra of acceleration histories: Fourier amplitudes, Konno-Ohmachi smoothing
 and the pseudo-spectral acceleration of a damped oscillator. Accelerations in m/s2, times in
 s, frequencies in Hz."""
 

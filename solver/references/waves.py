@@ -1,4 +1,4 @@
-"""Compression waves in a saturated column: the references of a sudden load (issue 30).
+"""Compression waves in a saturated column: the references of a sudden load.
 
 The one-dimensional v-w equations of the explicit step (paper eqs. 6-15, incompressible
 grains) for plane waves e^{i(w t - kappa x)}: solid and liquid velocities V, W, effective

@@ -66,6 +66,7 @@ class Record:
         its provenance (collective: rank 0 asks git and the libraries) with ``options``
         (:func:`provenance.options`)."""
         self.path, self.folder, self.run_id = outputs.summary, outputs.folder, run_id
+        self.files = {"summary": self.path, **self.files}
         self.provenance = provenance.collect(self.comm, options)
 
     def enter(self, phase: str) -> None:
@@ -87,7 +88,7 @@ class Record:
         out = dict(head, **self.results)
         if error is not None:
             out["error"] = error
-        out["files"] = dict(self.files, summary=self.path)
+        out["files"] = {"summary": self.path, **self.files}
         return out
 
     def write(self, completed: bool = True, error: dict | None = None) -> str:

@@ -1,5 +1,5 @@
 """A soil body shaken at its base: explicit one-phase dynamics on the material points, the
-step of ``-mpm_analysis dynamic -mpm_phases 1`` (issue 30).
+step of ``-mpm_analysis dynamic -mpm_phases 1``.
 
 One phase (the solid with the mixture's density, a dry or total-stress analysis), linear
 elastic, small strain: the points stay where they are, so the step is the eigen model's own
