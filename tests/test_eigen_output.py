@@ -19,7 +19,7 @@ VTK_CELL = {"q4": "quad", "q8": "quad8", "q9": "quad9"}
 def test_summary_keys(paper_run, element):
     res, out = paper_run(element)
     s = check_ok(res)
-    for key in ("analysis", "ranks", "ndof", "n_points", "frequencies_hz", "jacobi", "slepc",
+    for key in ("analysis", "provenance", "completed", "steps", "wall", "ndof", "n_points", "frequencies_hz", "jacobi", "slepc",
                 "cross_check", "references", "files"):
         assert key in s, key
     assert set(s["frequencies_hz"]) == {"jacobi", "slepc"}

@@ -175,7 +175,7 @@ def test_layer_interfaces_are_drawn_at_the_layer_bottoms():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from solver.io import figures
+    from solver.io import output as figures
 
     fig, ax = plt.subplots()
     figures.layer_interfaces(ax, Ground((0.25, 0.5, 0.25), (Soil(),) * 3), label=True)

@@ -252,7 +252,7 @@ def test_signal_in_the_eigen_analysis(cli, tmp_path, monkeypatch):
     _signal_in(monkeypatch, "solver.modal.jacobi.solve", signal.SIGTERM)
     res = cli(["-mpm_figures", "0"], options_file="eigen-q4", out_dir=tmp_path)
     assert res.returncode == 4, res.stderr
-    assert res.stderr == ("solver: error: stopped by SIGTERM during the eigen analysis; "
+    assert res.stderr == ("solver: error: stopped by SIGTERM during solving: Jacobi; "
                           f"summary {tmp_path / 'summary.json'}\n")
     s = res.summary
     assert s["analysis"] == "eigen" and s["completed"] is False

@@ -2,7 +2,7 @@
 
 While a command runs (:func:`watched`), either signal raises :class:`Interrupted` at once,
 naming the stage the run was in (:func:`stage`): the set-up, the stability analysis, an
-eigen solve, the reporting. While the explicit steps run (:func:`deferred`) a signal is only
+eigen solve, the reporting. While the loop steps (:func:`deferred`) a signal is only
 marked; the time loop looks at the mark after each step, where the ranks agree on it and the
 points hold a whole state for the checkpoint.
 

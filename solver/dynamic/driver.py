@@ -56,7 +56,7 @@ def _run(req, comm, record, stack) -> None:
     stack.callback(engine.destroy)
     model = Shaken(plan, engine, comm, ckpt)
     record.results = reporting.keys(plan, engine)
-    reporting.print_plan(plan, engine, model.nsteps - 1, comm)
+    reporting.print_plan(plan, engine, model.nsteps, comm)
     output_every, ckpt_every, ckpt_seconds, progress = plan.cadence
     cadence = Cadence(model.nsteps, sample_every=engine.every,
                       output_every=output_every or max(1, (model.nsteps - 1) // 50),

@@ -149,6 +149,7 @@ def _analysis(plan, comm, record, owned) -> None:
                               for k, v in freq.items()}
     if len(freq) == 2:
         summary["cross_check"] = compare.cross_check(freq, vecs, scale)
+    signals.stage("solving: the references")
     refs = compare.references(plan, comm, rod, owned)
     summary["references"] = refs
     compare.print_table(comm, freq, refs, summary.get("cross_check"), scale)
@@ -166,6 +167,7 @@ def _solve(plan, comm, model, freq, vecs, summary) -> list:
     body, nmodes, n = plan.body, plan.nmodes, K.getSize()[0]
     warnings = []          # Jacobi's, then the zero-energy modes'
     if "jacobi" in plan.solvers:
+        signals.stage("solving: Jacobi")
         freq["jacobi"], vecs["jacobi"], summary["jacobi"], warnings = _jacobi(
             plan, comm, K, M, rod, owned)
     elif n <= MASS_CHECK_MAX_DOFS:
@@ -177,6 +179,7 @@ def _solve(plan, comm, model, freq, vecs, summary) -> list:
             raise NumericalError(mass_diagnosis(body, exc).replace("Jacobi: ", "", 1)) \
                 from None
     if "slepc" in plan.solvers:
+        signals.stage("solving: SLEPc")
         with PETSc.Log.Stage("SLEPc"):
             res = slepc_solve(K, M, nmodes)
         owned.callback(destroy, *res.vectors)

@@ -10,7 +10,9 @@ A model offers (the protocol :class:`Model`):
 - ``sample(k)``: record the samples of step k (histories, reports);
 - ``write_fields(k)``: the fields of step k into the output series (collective);
 - ``state()``: what a checkpoint stores besides the points (a dict of JSON values);
-- ``time(k)``: the time (s) at the end of step k;
+- ``time(k)``: the time (s) that step k's samples and fields are of: the step's end, or
+  its start for a model whose cadence counts from an offset of 1 (the one-phase dynamic
+  step computes the acceleration at its start);
 - ``progress(k)``: what the progress line says of step k ("t = 1.2 s, ...");
 - ``points`` (the DMSwarm a checkpoint gathers) and ``log_stage`` (the PETSc log stage
   of its steps).
@@ -136,6 +138,7 @@ def drive(model: Model, cadence: Cadence, record, saving: Saving, first: int = 1
                 flags = mpi.allreduce(flags, op=_bor())
             if flags or cadence.checkpoints(k):
                 saving.write(comm, model, k)
+                record.files["checkpoint"] = saving.path
                 last_save = time.perf_counter()
             if flags & 2:
                 raise Interrupted(f"stopped by {stop.name or 'a signal'} at step {k} "

@@ -11,7 +11,8 @@ The head of every summary:
   analysis), ``reporting_s`` and ``total_s``, from the command's start;
 - ``provenance``: the package's version and git commit, the libraries, the CPU, the ranks,
   the command line and every option in effect (:mod:`solver.io.provenance`);
-- ``error`` (a failed run only): ``kind`` (input, numerical, interrupted, internal),
+- ``error`` (a failed run only): ``kind`` (numerical, interrupted, internal: bad input
+  stops a run before it writes anything),
   ``exit_code``, ``message``, ``stage`` (the phase and what it was doing) and ``step`` (the
   last step done, where there is one);
 - ``files``: what the run wrote, the summary itself among them.
@@ -167,10 +168,12 @@ def guarded(record: Record, work):
     except InputError:
         raise
     except Interrupted as exc:
-        if exc.agreed or record.phase != "reporting":
+        if exc.agreed:      # the loop's: its line names the checkpoint and the restart
+            record.fail(str(exc), 4)
+            raise
+        if record.phase != "reporting":
             said = record.fail(str(exc), 4)
-            raise Interrupted(str(exc) + said, stage=record.stage(),
-                              agreed=exc.agreed) from None
+            raise Interrupted(str(exc) + said, stage=record.stage()) from None
         failure = exc
     except NumericalError as exc:
         record.fail(str(exc), exc.exit_code)
