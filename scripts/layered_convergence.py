@@ -75,7 +75,7 @@ def options(element, cells, folder):
 def read(folder):
     """(summary, profile rows as dicts of floats) of the run in ``folder``."""
     with open(os.path.join(folder, "summary.json")) as fh:
-        summary = json.load(fh)
+        summary = harness.results(json.load(fh))
     with open(os.path.join(folder, "profiles.csv")) as fh:
         rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(fh)]
     return summary, rows

@@ -173,7 +173,7 @@ def test_failure_in_the_final_reporting_writes_summary_and_checkpoint(inject, cl
     assert res.returncode == 0, res.stderr
     again = _summary(out)
     assert again["completed"] is True and again["steps"] == s["steps"]
-    assert again["monitor"]["Tv"] == [0.02]
+    assert again["consolidation"]["monitor"]["Tv"] == [0.02]
 
 
 def test_failure_inside_the_stepping_writes_the_summary_without_a_checkpoint(inject, tmp_path):
@@ -208,7 +208,7 @@ def test_internal_error_traceback_only_with_debug(inject, tmp_path):
     s = _summary(out)
     assert s["completed"] is False and s["error"]["kind"] == "internal"
     # What was computed before the failure is in the summary.
-    assert len(s["frequencies_hz"]["jacobi"]) == 5 and "references" in s
+    assert len(s["eigen"]["frequencies_hz"]["jacobi"]) == 5 and "references" in s["eigen"]
 
 
 @ONE_AND_TWO_RANKS
@@ -233,7 +233,7 @@ def test_eigen_failure_writes_the_summary(cli, tmp_path, args, ranks, says):
     s = res.summary
     assert s is not None and s["completed"] is False
     assert s["error"]["kind"] == "numerical" and says in s["error"]["message"]
-    assert s["analysis"] == "eigen" and s["ndof"] > 0
+    assert s["analysis"] == "eigen" and s["eigen"]["ndof"] > 0
 
 
 def test_successful_runs_say_completed(cli):
@@ -248,13 +248,13 @@ def test_scene_report_times_after_the_end_are_dropped_with_a_note(cli):
     notes = [line for line in res.stdout.splitlines() if "-mpm_Tv_report" in line]
     assert len(notes) == 1 and notes[0].startswith("Note: -mpm_Tv_report (")
     assert "consolidation-m1-q4.opts:" in notes[0] and "0.5,1 after -mpm_Tv_end 0.02" in notes[0]
-    assert res.summary["monitor"]["Tv"] == [0.02]
+    assert res.summary["consolidation"]["monitor"]["Tv"] == [0.02]
 
 
 def test_report_times_all_after_the_end_report_at_the_end(cli):
     res = cli(SHORT[2:] + ["-mpm_Tv_end", "0.01"], options_file="consolidation-m1-q4")
     assert res.returncode == 0, res.stderr
-    assert res.summary["monitor"]["Tv"] == [0.01]
+    assert res.summary["consolidation"]["monitor"]["Tv"] == [0.01]
 
 
 def test_report_times_on_the_command_line_after_the_end_stay_an_error(cli):
@@ -271,7 +271,7 @@ def test_consolidation_scene_runs_as_eigen(cli):
     notes = [line for line in res.stdout.splitlines() if line.startswith("Note:")]
     assert len(notes) == 1 and "not used by -mpm_analysis eigen, ignored" in notes[0]
     assert "-mpm_K_l" in notes[0] and "-mpm_Tv_end" in notes[0]
-    assert res.summary["frequencies_hz"]["jacobi"][0] == pytest.approx(16.92, abs=0.005)
+    assert res.summary["eigen"]["frequencies_hz"]["jacobi"][0] == pytest.approx(16.92, abs=0.005)
 
 
 def test_other_analysis_options_on_the_command_line_stay_errors(cli):

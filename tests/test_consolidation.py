@@ -45,7 +45,7 @@ def mesh_runs(tmp_path_factory):
 
 def test_table5_errors_no_larger_than_paper(mesh_runs):
     for case, (s, _, _) in mesh_runs.items():
-        mon = s["monitor"]
+        mon = s["consolidation"]["monitor"]
         assert mon["Tv"] == [0.02, 0.5, 1.0]
         assert mon["height"] == pytest.approx(MONITOR[case], abs=1e-4)
         err = dict(zip(mon["Tv"], mon["error_pct"]))
@@ -63,9 +63,14 @@ def test_consistent_error_falls_with_refinement(mesh_runs):
     a few tenths of a percent (the pressure projection), where one point's error may pass
     through zero on the coarsest mesh (M1 0.25 %, M2 0.26 % at T_v = 0.5): there the finest
     mesh must beat both, and every error stay below 0.6 %."""
-    cons = [mesh_runs[c][0]["monitor"]["error_consistent_pct"] for c in ("m1-q4", "m2-q4",
-                                                                         "m3-q4")]
-    l2 = [mesh_runs[c][0]["profile_l2"]["consistent"] for c in ("m1-q4", "m2-q4", "m3-q4")]
+    cons = [
+        mesh_runs[c][0]["consolidation"]["monitor"]["error_consistent_pct"]
+        for c in ("m1-q4", "m2-q4", "m3-q4")
+    ]
+    l2 = [
+        mesh_runs[c][0]["consolidation"]["profile_l2"]["consistent"]
+        for c in ("m1-q4", "m2-q4", "m3-q4")
+    ]
     for k in (1, 2):                      # T_v = 0.5 and 1
         a, b, c = (abs(e[k]) for e in cons)
         assert c < min(a, b) and max(a, b, c) < 0.6, cons
@@ -76,12 +81,12 @@ def test_consistent_error_falls_with_refinement(mesh_runs):
 
 def test_critical_time_steps_match_table1(mesh_runs):
     for case, (s, _, _) in mesh_runs.items():
-        dtc = s["dt_critical"]
+        dtc = s["consolidation"]["dt_critical"]
         assert set(dtc) == {"cfl", "undrained", "diffusion", "oscillator", "drag", "discrete"}
         assert float(f"{dtc['undrained']:.3g}") == PAPER_DT1[case]
         assert dtc["drag"] == pytest.approx(1.466e-4, rel=1e-3)
-        assert s["dt"] <= min(dtc.values())
-    m1 = mesh_runs["m1-q4"][0]["dt_critical"]
+        assert s["consolidation"]["dt"] <= min(dtc.values())
+    m1 = mesh_runs["m1-q4"][0]["consolidation"]["dt_critical"]
     assert m1["cfl"] == pytest.approx(1.48e-3, rel=3e-3)
     assert m1["diffusion"] == pytest.approx(0.0201, rel=3e-3)
     # c3 = 2 pi f1 H with f1 = 16.92 Hz (Q4 model): L / c3.
@@ -98,7 +103,7 @@ def test_outputs_open(mesh_runs):
     with meshio.xdmf.TimeSeriesReader(s["files"]["fields_xdmf"]) as series:
         points, cells = series.read_points_cells()
         _, data, _ = series.read_data(0)
-    assert len(points) == s["n_points"] == 40
+    assert len(points) == s["consolidation"]["n_points"] == 40
     assert [c.type for c in cells] == ["vertex"] and len(cells[0].data) == 40
     for name in ("pore_pressure", "effective_stress_xx", "effective_stress_yy",
                  "effective_stress_xy", "displacement", "velocity_solid", "velocity_liquid"):
@@ -111,12 +116,14 @@ def test_outputs_open(mesh_runs):
 def test_table4_quadratic_no_worse_than_paper(cli, case):
     s = check_ok(cli(["-mpm_progress", "0", "-mpm_figures", "0"], timeout=900,
                      options_file=f"consolidation-{case}"))
-    err = dict(zip(s["monitor"]["Tv"], s["monitor"]["error_pct"]))
+    err = dict(zip(s["consolidation"]["monitor"]["Tv"], s["consolidation"]["monitor"]["error_pct"]))
     assert abs(err[0.02]) <= 3.0
     assert abs(err[0.5]) <= PAPER_ERRORS[case][0]
     assert abs(err[1.0]) <= PAPER_ERRORS[case][1]
-    depth = 1.0 - s["monitor"]["height"]
-    for Tv, ref in zip(s["monitor"]["Tv"], s["monitor"]["terzaghi"]):
+    depth = 1.0 - s["consolidation"]["monitor"]["height"]
+    for Tv, ref in zip(
+        s["consolidation"]["monitor"]["Tv"], s["consolidation"]["monitor"]["terzaghi"]
+    ):
         assert ref == pytest.approx(terzaghi(depth, Tv), rel=1e-9)
 
 
@@ -145,18 +152,22 @@ def test_one_and_more_ranks_agree(cli, tmp_path, case, ranks, extra):
     b = check_ok(cli(args, ranks=ranks, options_file=f"consolidation-{case}",
                      out_dir=tmp_path / "n2"))
     assert b["provenance"]["ranks"] == ranks
-    assert a["dt"] == b["dt"] and a["steps"] == b["steps"]
+    assert a["consolidation"]["dt"] == b["consolidation"]["dt"] and a["steps"] == b["steps"]
     for key in ("p_over_q",):
-        np.testing.assert_allclose(b["monitor"][key], a["monitor"][key], rtol=1e-10)
+        np.testing.assert_allclose(
+            b["consolidation"]["monitor"][key], a["consolidation"]["monitor"][key], rtol=1e-10
+        )
     for key in ("terzaghi", "consistent"):
-        np.testing.assert_allclose(b["profile_l2"][key], a["profile_l2"][key], rtol=1e-10)
+        np.testing.assert_allclose(
+            b["consolidation"]["profile_l2"][key], a["consolidation"]["profile_l2"][key], rtol=1e-10
+        )
 
 
 def _limits(cli, tmp_path, case, extra):
     s = check_ok(cli(["-mpm_Tv_end", "0.001", "-mpm_Tv_report", "0.001", "-mpm_progress", "0",
                       "-mpm_figures", "0", *extra], options_file=f"consolidation-{case}",
                      out_dir=tmp_path / "limits"))
-    return s["dt_critical"]
+    return s["consolidation"]["dt_critical"]
 
 
 def _stable(cli, tmp_path, case, dt, extra, name):
@@ -215,12 +226,14 @@ def test_second_parameter_set(cli):
     cv = k * E_c / gw
     c2 = k / (gw * (1 / E_c + n / K_l))
     p0 = (K_l / n) / (K_l / n + E_c)
-    assert s["c_v"] == pytest.approx(cv, rel=1e-12)
-    depth = H - s["monitor"]["height"]
-    for Tv, num in zip(s["monitor"]["Tv"], s["monitor"]["p_over_q"]):
+    assert s["consolidation"]["c_v"] == pytest.approx(cv, rel=1e-12)
+    depth = H - s["consolidation"]["monitor"]["height"]
+    for Tv, num in zip(
+        s["consolidation"]["monitor"]["Tv"], s["consolidation"]["monitor"]["p_over_q"]
+    ):
         ref = terzaghi(depth, Tv * c2 / cv, H, p0)
         assert abs(num - ref) / ref < 0.02, (Tv, num, ref)
-    assert max(s["profile_l2"]["consistent"]) < 0.02
+    assert max(s["consolidation"]["profile_l2"]["consistent"]) < 0.02
 
 
 @pytest.mark.parametrize("option,value", [
@@ -260,7 +273,7 @@ def test_blow_up_exits_3_with_summary(cli, tmp_path):
     line = res.stderr.strip()
     assert line.startswith("solver: error: blow-up") and "step" in line and "t =" in line
     assert res.summary["error"]["kind"] == "numerical" and res.summary["steps"] > 0
-    assert math.isclose(res.summary["dt"], 5e-4)
+    assert math.isclose(res.summary["consolidation"]["dt"], 5e-4)
 
 
 def test_output_every_writes_a_whole_series(cli, tmp_path):
@@ -276,7 +289,9 @@ def test_output_every_writes_a_whole_series(cli, tmp_path):
     # every 100 steps, plus the report time (T_v = 0.005 is the last step)
     assert len(steps) == s["steps"] // 100 + (s["steps"] % 100 != 0)
     times = [t for t, _, _ in steps]
-    assert times == sorted(times) and times[-1] == pytest.approx(s["steps"] * s["dt"])
+    assert times == sorted(times) and times[-1] == pytest.approx(
+        s["steps"] * s["consolidation"]["dt"]
+    )
     assert len(list(out.glob("points_*.h5"))) == len(steps)
     assert np.all(np.isfinite(steps[-1][1]["pore_pressure"]))
 

@@ -88,7 +88,7 @@ def test_discrete_limit_is_sharp_on_moving_impermeable_sides(cli, tmp_path, name
     small, set by the liquid held still against the moving top)."""
     s = check_ok(_run_at(cli, tmp_path / "limit", scene,
                          ["-mpm_Tv_end", "1e-3", "-mpm_Tv_report", "1e-3"]))
-    dtc = s["dt_critical"]
+    dtc = s["consolidation"]["dt_critical"]
     limit = dtc["discrete"]
     # Near the closed-form limits (the undrained wave's over the node spacing, half the
     # cell of quadratic ones, and the drag's where the drag is explicit), as it is with
@@ -118,7 +118,9 @@ def test_point_pressures_on_quadratic_cells_drained_through_a_side_are_noted(cli
                 out_dir=tmp_path / "corner")
     s = check_ok(quiet)
     assert "quadratic cells drained" not in quiet.stdout
-    assert s["pressure_projection"] == "corner" and s["flip"] == 1.0
+    assert (
+        s["consolidation"]["pressure_projection"] == "corner" and s["consolidation"]["flip"] == 1.0
+    )
 
 
 def _fe_reference(o, t, xy):

@@ -261,7 +261,7 @@ def test_sigterm_checkpoints_and_a_restart_on_two_ranks_continues(cli, tmp_path)
                            "-mpm_output", out], out / "checkpoint.npz")
     summary = json.loads((out / "summary.json").read_text())
     assert summary["error"]["kind"] == "interrupted" and summary["completed"] is False
-    assert 0 < summary["steps"] == summary["error"]["step"] < 6 / summary["dt"]
+    assert 0 < summary["steps"] == summary["error"]["step"] < 6 / summary["dynamic"]["dt"]
     full = tmp_path / "full"
     check_ok(cli(args, options_file="dynamic-layers", out_dir=full))
     check_ok(cli(["-mpm_restart", out / "checkpoint.npz"], ranks=2, out_dir=out,

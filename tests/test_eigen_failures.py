@@ -88,12 +88,12 @@ def test_rigid_body_mode_warns(cli):
     res = cli(["-mpm_bc_bottom", "none", "-mpm_bc_left", "none", "-mpm_nmodes", "3",
                "-mpm_figures", "0"], options_file="eigen-q4")
     s = check_ok(res)
-    assert any("1 of the lowest 3 modes at about 0 Hz" in w for w in s["warnings"])
+    assert any("1 of the lowest 3 modes at about 0 Hz" in w for w in s["eigen"]["warnings"])
     for solver in ("jacobi", "slepc"):
-        f = s["frequencies_hz"][solver]
+        f = s["eigen"]["frequencies_hz"][solver]
         assert f[0] < 1e-3 and f[1] > 1.0
-    assert max(s["cross_check"]["relative_eigenvalue_difference"][1:]) < 1e-8
-    assert not any("residual" in w for w in s["warnings"])
+    assert max(s["eigen"]["cross_check"]["relative_eigenvalue_difference"][1:]) < 1e-8
+    assert not any("residual" in w for w in s["eigen"]["warnings"])
 
 
 def test_loose_tolerance_reports_accuracy(cli):
@@ -103,15 +103,15 @@ def test_loose_tolerance_reports_accuracy(cli):
     squared, never more than the residual)."""
     loose = check_ok(cli(["-mpm_jacobi_tol", "0.1", "-mpm_figures", "0"],
                          options_file="eigen-q9"))
-    r = np.array(loose["jacobi"]["residual"])
+    r = np.array(loose["eigen"]["jacobi"]["residual"])
     assert r.max() > 1e-6
-    assert any("relative residuals up to" in w for w in loose["warnings"])
-    diff = np.array(loose["cross_check"]["relative_eigenvalue_difference"])
+    assert any("relative residuals up to" in w for w in loose["eigen"]["warnings"])
+    diff = np.array(loose["eigen"]["cross_check"]["relative_eigenvalue_difference"])
     assert diff.max() > 1e-8                       # the loose run is visibly off ...
     assert np.all(diff <= 2 * r)                   # ... by no more than its residuals say
     tight = check_ok(cli(["-mpm_figures", "0"], options_file="eigen-q9"))
-    assert max(tight["jacobi"]["residual"]) < 1e-10
-    assert not tight["warnings"]
+    assert max(tight["eigen"]["jacobi"]["residual"]) < 1e-10
+    assert not tight["eigen"]["warnings"]
 
 
 def test_residual_is_the_dense_residual():
@@ -141,7 +141,7 @@ def test_too_few_sweeps_say_how_many_more(cli, scene):
     more = int(re.search(r"about (\d+) more sweep", line).group(1))
     s = check_ok(cli(["-mpm_jacobi_max_sweeps", 5 + more, "-mpm_figures", "0"],
                      options_file=scene))
-    assert s["jacobi"]["sweeps"] == 5 + more or s["jacobi"]["sweeps"] <= 5 + more
+    assert s["eigen"]["jacobi"]["sweeps"] == 5 + more or s["eigen"]["jacobi"]["sweeps"] <= 5 + more
 
 
 def test_two_sweeps_far_from_converged(cli):
@@ -213,14 +213,14 @@ def test_free_body_names_its_rigid_modes(cli):
               options_file="eigen-q9")
     s = check_ok(res)
     assert "Warning" not in res.stderr and "RuntimeWarning" not in res.stdout, res.stderr
-    assert s["rigid_modes"] == {"jacobi": [1, 2, 3], "slepc": [1, 2, 3]}
-    assert s["references"]["rod_hz"] is None
+    assert s["eigen"]["rigid_modes"] == {"jacobi": [1, 2, 3], "slepc": [1, 2, 3]}
+    assert s["eigen"]["references"]["rod_hz"] is None
     head, rows = _table(res.stdout)
     assert "rod" not in head and len(rows) == 5
     assert all(r[1:4] == ["rigid"] * 3 for r in rows[:3])
-    cross = s["cross_check"]
+    cross = s["eigen"]["cross_check"]
     assert cross["mac"][:3] == [None] * 3 and None not in cross["mac"][3:]
-    fj, fs = (np.array(s["frequencies_hz"][k][3:]) for k in ("jacobi", "slepc"))
+    fj, fs = (np.array(s["eigen"]["frequencies_hz"][k][3:]) for k in ("jacobi", "slepc"))
     np.testing.assert_allclose(fj, fs, rtol=1e-8)
     assert f"Results in {s['files']['summary'].rsplit('/', 1)[0]}: summary.json" in res.stdout
 
@@ -233,13 +233,13 @@ def test_tall_column_prints_four_digits(cli):
     res = cli(["-mpm_size", "50,500", "-mpm_figures", "0"], options_file="eigen-q9")
     s = check_ok(res)
     rod = rod_frequencies(E, RHO, 500.0, 5)
-    np.testing.assert_allclose(s["references"]["rod_hz"], rod, rtol=1e-12)
+    np.testing.assert_allclose(s["eigen"]["references"]["rod_hz"], rod, rtol=1e-12)
     head, rows = _table(res.stdout)
     assert head[1:5] == ["Jacobi", "SLEPc", "1D", "rod"]
     col = {"Jacobi": 1, "SLEPc": 2, "rod": 3}
     for k, row in enumerate(rows):
-        for name, value in (("Jacobi", s["frequencies_hz"]["jacobi"][k]),
-                            ("SLEPc", s["frequencies_hz"]["slepc"][k]), ("rod", rod[k])):
+        for name, value in (("Jacobi", s["eigen"]["frequencies_hz"]["jacobi"][k]),
+                            ("SLEPc", s["eigen"]["frequencies_hz"]["slepc"][k]), ("rod", rod[k])):
             txt = row[col[name]]
             digits = len(txt.replace(".", "").lstrip("0"))
             assert digits >= 4 and float(txt) == pytest.approx(value, rel=5e-4), (name, txt)

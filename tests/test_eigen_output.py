@@ -19,15 +19,17 @@ VTK_CELL = {"q4": "quad", "q8": "quad8", "q9": "quad9"}
 def test_summary_keys(paper_run, element):
     res, out = paper_run(element)
     s = check_ok(res)
-    for key in ("analysis", "provenance", "completed", "steps", "wall", "ndof", "n_points", "frequencies_hz", "jacobi", "slepc",
-                "cross_check", "references", "files"):
+    for key in ("analysis", "provenance", "completed", "steps", "wall", "files", "eigen"):
         assert key in s, key
-    assert set(s["frequencies_hz"]) == {"jacobi", "slepc"}
+    for key in ("ndof", "n_points", "frequencies_hz", "jacobi", "slepc", "cross_check",
+                "references"):
+        assert key in s["eigen"], key
+    assert set(s["eigen"]["frequencies_hz"]) == {"jacobi", "slepc"}
     for key in ("sweeps", "seconds"):
-        assert key in s["jacobi"]
-    assert s["jacobi"]["seconds"] >= 0 and s["slepc"]["seconds"] >= 0
-    assert set(s["cross_check"]) >= {"relative_eigenvalue_difference", "mac"}
-    assert set(s["references"]) >= {"rod_hz", "fe_gauss_hz", "paper_table3_hz"}
+        assert key in s["eigen"]["jacobi"]
+    assert s["eigen"]["jacobi"]["seconds"] >= 0 and s["eigen"]["slepc"]["seconds"] >= 0
+    assert set(s["eigen"]["cross_check"]) >= {"relative_eigenvalue_difference", "mac"}
+    assert set(s["eigen"]["references"]) >= {"rod_hz", "fe_gauss_hz", "paper_table3_hz"}
     files = s["files"]
     assert {"summary", "modes_vtu", "modes_png"} <= set(files)
     assert files["summary"] == str(out / "summary.json")
@@ -116,18 +118,18 @@ def test_summary_option_and_no_figures(cli, tmp_path):
     assert (out / "modes.vtu").is_file()
     assert s["files"]["summary"] == str(summary)
     assert "modes_png" not in s["files"]
-    assert [round(f, 2) for f in s["frequencies_hz"]["jacobi"]] == pytest.approx(TABLE3_Q4)
+    assert [round(f, 2) for f in s["eigen"]["frequencies_hz"]["jacobi"]] == pytest.approx(TABLE3_Q4)
 
 
 @pytest.mark.parametrize("solver", ["jacobi", "slepc"])
 def test_single_solver(cli, solver):
     s = check_ok(cli(["-mpm_eigen_solver", solver, "-mpm_figures", "0"],
                      options_file="eigen-q4"))
-    assert set(s["frequencies_hz"]) == {solver}
-    assert "cross_check" not in s
+    assert set(s["eigen"]["frequencies_hz"]) == {solver}
+    assert "cross_check" not in s["eigen"]
     other = {"jacobi": "slepc", "slepc": "jacobi"}[solver]
     assert other not in s
-    assert [round(f, 2) for f in s["frequencies_hz"][solver]] == pytest.approx(TABLE3_Q4)
+    assert [round(f, 2) for f in s["eigen"]["frequencies_hz"][solver]] == pytest.approx(TABLE3_Q4)
 
 
 def test_deep_output_folder_is_created(cli, tmp_path):

@@ -73,7 +73,7 @@ def _table_rows(stdout):
 def test_table3_both_solvers(paper_run, element):
     s = check_ok(paper_run(element)[0])
     for solver in ("jacobi", "slepc"):
-        f = s["frequencies_hz"][solver]
+        f = s["eigen"]["frequencies_hz"][solver]
         assert len(f) == 5
         assert rounded(f) == pytest.approx(PAPER_TABLE3[element], abs=1e-9), solver
 
@@ -96,11 +96,11 @@ def test_printed_table_shows_table3(paper_run, element):
 @pytest.mark.parametrize("element", ELEMENTS)
 def test_jacobi_and_slepc_agree(paper_run, element):
     s = check_ok(paper_run(element)[0])
-    fj = np.array(s["frequencies_hz"]["jacobi"])
-    fs = np.array(s["frequencies_hz"]["slepc"])
+    fj = np.array(s["eigen"]["frequencies_hz"]["jacobi"])
+    fs = np.array(s["eigen"]["frequencies_hz"]["slepc"])
     rel = np.abs(fj ** 2 - fs ** 2) / fs ** 2
     assert np.all(rel <= 1e-8), rel
-    cross = s["cross_check"]
+    cross = s["eigen"]["cross_check"]
     assert len(cross["relative_eigenvalue_difference"]) == 5 and len(cross["mac"]) == 5
     assert max(cross["relative_eigenvalue_difference"]) <= 1e-8
     np.testing.assert_allclose(cross["relative_eigenvalue_difference"], rel, rtol=0, atol=1e-12)
@@ -111,11 +111,11 @@ def test_jacobi_and_slepc_agree(paper_run, element):
 @pytest.mark.parametrize("element", ELEMENTS)
 def test_jacobi_sweeps_within_paper_count(paper_run, element):
     s = check_ok(paper_run(element)[0])
-    assert s["jacobi"]["tol"] == 1e-15
-    assert 1 <= s["jacobi"]["sweeps"] <= PAPER_SWEEPS[element]
-    assert s["jacobi"]["coupling"] <= 1e-15
-    assert s["jacobi"]["eigenvalue_change"] <= 1e-15
-    assert f"Jacobi: {s['jacobi']['sweeps']} sweeps" in paper_run(element)[0].stdout
+    assert s["eigen"]["jacobi"]["tol"] == 1e-15
+    assert 1 <= s["eigen"]["jacobi"]["sweeps"] <= PAPER_SWEEPS[element]
+    assert s["eigen"]["jacobi"]["coupling"] <= 1e-15
+    assert s["eigen"]["jacobi"]["eigenvalue_change"] <= 1e-15
+    assert f"Jacobi: {s['eigen']['jacobi']['sweeps']} sweeps" in paper_run(element)[0].stdout
 
 
 @pytest.mark.parametrize("element", ELEMENTS)
@@ -123,16 +123,16 @@ def test_scene_size(paper_run, element):
     s = check_ok(paper_run(element)[0])
     assert s["analysis"] == "eigen"
     assert s["provenance"]["ranks"] == 1
-    assert s["ndof"] == expected_free_dofs(element, 1, 10)
-    assert s["ndof"] == {"q4": 20, "q8": 60, "q9": 80}[element]
-    assert s["n_points"] == 10 * PPC[element] ** 2
-    assert s["density_kg_m3"] == pytest.approx(2190.0, rel=1e-14)
+    assert s["eigen"]["ndof"] == expected_free_dofs(element, 1, 10)
+    assert s["eigen"]["ndof"] == {"q4": 20, "q8": 60, "q9": 80}[element]
+    assert s["eigen"]["n_points"] == 10 * PPC[element] ** 2
+    assert s["eigen"]["density_kg_m3"] == pytest.approx(2190.0, rel=1e-14)
 
 
 @pytest.mark.parametrize("element", ELEMENTS)
 def test_references_in_summary(paper_run, element):
     s = check_ok(paper_run(element)[0])
-    refs = s["references"]
+    refs = s["eigen"]["references"]
     assert refs["paper_table3_hz"] == pytest.approx(PAPER_TABLE3[element], abs=1e-12)
     np.testing.assert_allclose(refs["rod_hz"], rod_hz(E, RHO, H, 5), rtol=1e-12)
     assert len(refs["fe_gauss_hz"]) == 5
@@ -140,14 +140,14 @@ def test_references_in_summary(paper_run, element):
 
 def test_fe_gauss_q4_equals_paper(paper_run):
     s = check_ok(paper_run("q4")[0])
-    assert rounded(s["references"]["fe_gauss_hz"]) == pytest.approx(PAPER_FE_Q4, abs=1e-9)
+    assert rounded(s["eigen"]["references"]["fe_gauss_hz"]) == pytest.approx(PAPER_FE_Q4, abs=1e-9)
 
 
 @pytest.mark.parametrize("element", ["q8", "q9"])
 def test_fe_gauss_quadratic_equals_abaqus_cpe8(paper_run, element):
     """3 x 3 Gauss points integrate the quadratic cells' K and M exactly: Abaqus CPE8."""
     s = check_ok(paper_run(element)[0])
-    assert rounded(s["references"]["fe_gauss_hz"]) == pytest.approx(PAPER_ABAQUS_CPE8,
+    assert rounded(s["eigen"]["references"]["fe_gauss_hz"]) == pytest.approx(PAPER_ABAQUS_CPE8,
                                                                     abs=1e-9)
 
 
@@ -160,17 +160,17 @@ def test_fine_q9_column_approaches_rod(cli, paper_run):
               options_file="eigen-q9")
     s = check_ok(res)
     rod = rod_hz(constrained_modulus(E, nu), RHO, H, 5)
-    np.testing.assert_allclose(s["references"]["rod_hz"], rod, rtol=1e-12)
+    np.testing.assert_allclose(s["eigen"]["references"]["rod_hz"], rod, rtol=1e-12)
     coarse = check_ok(paper_run("q9")[0])
-    err10 = np.abs(np.array(coarse["frequencies_hz"]["slepc"]) / rod_hz(E, RHO, H, 5) - 1)
+    err10 = np.abs(np.array(coarse["eigen"]["frequencies_hz"]["slepc"]) / rod_hz(E, RHO, H, 5) - 1)
     for solver in ("jacobi", "slepc"):
-        f = np.array(s["frequencies_hz"][solver])
+        f = np.array(s["eigen"]["frequencies_hz"][solver])
         err = np.abs(f / rod - 1)
         assert np.all(err <= 0.005), (solver, err)
         assert np.all(err < err10), (solver, err, err10)
     # The FE model of the fine grid too.
-    assert np.all(np.abs(np.array(s["references"]["fe_gauss_hz"]) / rod - 1) <= 0.005)
-    assert s["ndof"] == expected_free_dofs("q9", 1, 40)
+    assert np.all(np.abs(np.array(s["eigen"]["references"]["fe_gauss_hz"]) / rod - 1) <= 0.005)
+    assert s["eigen"]["ndof"] == expected_free_dofs("q9", 1, 40)
 
 
 def test_paper_scene_with_more_modes(cli):
@@ -181,7 +181,7 @@ def test_paper_scene_with_more_modes(cli):
     assert "Traceback" not in res.stderr
     s = check_ok(res)
     for solver in ("jacobi", "slepc"):
-        f = s["frequencies_hz"][solver]
+        f = s["eigen"]["frequencies_hz"][solver]
         assert len(f) == 8
         assert rounded(f[:5]) == pytest.approx(PAPER_TABLE3["q9"], abs=1e-9)
         assert np.all(np.diff(f) > 0)

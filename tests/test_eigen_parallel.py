@@ -13,17 +13,20 @@ WIDE = ["-mpm_cells", "4,6", "-mpm_size", "0.4,0.6", "-mpm_nu", "0.3", "-mpm_ele
 
 def assert_same_model(s1, sn, ranks):
     assert sn["provenance"]["ranks"] == ranks and s1["provenance"]["ranks"] == 1
-    assert sn["ndof"] == s1["ndof"]
-    assert sn["n_points"] == s1["n_points"]
+    assert sn["eigen"]["ndof"] == s1["eigen"]["ndof"]
+    assert sn["eigen"]["n_points"] == s1["eigen"]["n_points"]
     for solver in ("jacobi", "slepc"):
-        f1 = np.array(s1["frequencies_hz"][solver])
-        fn = np.array(sn["frequencies_hz"][solver])
+        f1 = np.array(s1["eigen"]["frequencies_hz"][solver])
+        fn = np.array(sn["eigen"]["frequencies_hz"][solver])
         assert f1.shape == fn.shape
         np.testing.assert_allclose(fn, f1, rtol=RTOL, atol=0, err_msg=solver)
-    np.testing.assert_allclose(sn["references"]["fe_gauss_hz"], s1["references"]["fe_gauss_hz"],
-                               rtol=RTOL)
-    assert max(sn["cross_check"]["relative_eigenvalue_difference"]) <= 1e-8
-    assert min(sn["cross_check"]["mac"]) > 0.999999
+    np.testing.assert_allclose(
+        sn["eigen"]["references"]["fe_gauss_hz"],
+        s1["eigen"]["references"]["fe_gauss_hz"],
+        rtol=RTOL,
+    )
+    assert max(sn["eigen"]["cross_check"]["relative_eigenvalue_difference"]) <= 1e-8
+    assert min(sn["eigen"]["cross_check"]["mac"]) > 0.999999
 
 
 @pytest.mark.mpi(2)
@@ -41,7 +44,7 @@ def test_paper_scene_two_ranks(paper_run, element):
 def test_wide_grid_two_ranks(cli, tmp_path):
     """4 x 6 Q9 cells, nu = 0.3 (modes with lateral motion), on 1 and 2 ranks."""
     s1 = check_ok(cli(WIDE, options_file="eigen-q9", out_dir=tmp_path / "n1"))
-    assert s1["ndof"] == 192 and s1["n_points"] == 216
+    assert s1["eigen"]["ndof"] == 192 and s1["eigen"]["n_points"] == 216
     s2 = check_ok(cli(WIDE, ranks=2, options_file="eigen-q9", out_dir=tmp_path / "n2"))
     assert_same_model(s1, s2, 2)
 
@@ -88,7 +91,7 @@ def test_tiny_model_on_two_ranks(cli, tmp_path):
     args = ["-mpm_cells", "1,2", "-mpm_size", "0.1,0.2", "-mpm_bc_top", "xy",
             "-mpm_nmodes", "1", "-mpm_figures", "0"]
     s1 = check_ok(cli(args, options_file="eigen-q4", out_dir=tmp_path / "n1"))
-    assert s1["ndof"] == 2
+    assert s1["eigen"]["ndof"] == 2
     res = cli(args, ranks=2, options_file="eigen-q4", out_dir=tmp_path / "n2", timeout=10)
     s2 = check_ok(res)
     assert_same_model(s1, s2, 2)
@@ -101,8 +104,8 @@ def test_blocked_model_two_ranks(cli, tmp_path):
     ranks) give the same frequencies; Jacobi agrees with SLEPc."""
     args = ["-mpm_cells", "2,40", "-mpm_nu", "0.3", "-mpm_figures", "0"]
     s1 = check_ok(cli(args, options_file="eigen-q9", out_dir=tmp_path / "n1"))
-    assert s1["ndof"] == 640 and s1["jacobi"]["block_sizes"][0] > 1
+    assert s1["eigen"]["ndof"] == 640 and s1["eigen"]["jacobi"]["block_sizes"][0] > 1
     s2 = check_ok(cli(args, ranks=2, options_file="eigen-q9", out_dir=tmp_path / "n2"))
-    assert s2["jacobi"]["block_sizes"] == s1["jacobi"]["block_sizes"]
+    assert s2["eigen"]["jacobi"]["block_sizes"] == s1["eigen"]["jacobi"]["block_sizes"]
     assert_same_model(s1, s2, 2)
-    assert max(s1["jacobi"]["residual"]) < 1e-9
+    assert max(s1["eigen"]["jacobi"]["residual"]) < 1e-9

@@ -128,12 +128,12 @@ def test_frequencies_match_dense_reference(ref_shapes, reference_runs, element):
     s = check_ok(res)
     K, M, dofs, _ = dense_model(ref_shapes, element, CELLS, SIZE, PPC[element], E, NU, RHO)
     lam, _ = dense_eigen(K, M)
-    assert s["ndof"] == len(dofs)
-    assert s["n_points"] == CELLS[0] * CELLS[1] * PPC[element] ** 2
-    assert s["density_kg_m3"] == pytest.approx(RHO, rel=1e-14)
+    assert s["eigen"]["ndof"] == len(dofs)
+    assert s["eigen"]["n_points"] == CELLS[0] * CELLS[1] * PPC[element] ** 2
+    assert s["eigen"]["density_kg_m3"] == pytest.approx(RHO, rel=1e-14)
     ref = hz(lam[:NMODES])
     for solver in ("jacobi", "slepc"):
-        f = np.array(s["frequencies_hz"][solver])
+        f = np.array(s["eigen"]["frequencies_hz"][solver])
         assert f.shape == (NMODES,)
         np.testing.assert_allclose(f, ref, rtol=1e-8, atol=0, err_msg=solver)
 
@@ -147,7 +147,7 @@ def test_fe_gauss_reference_matches_dense_fe(ref_shapes, reference_runs, element
     ng = 2 if element == "q4" else 3
     K, M, _, _ = dense_model(ref_shapes, element, CELLS, SIZE, ng, E, NU, RHO, "gauss")
     lam, _ = dense_eigen(K, M)
-    np.testing.assert_allclose(s["references"]["fe_gauss_hz"], hz(lam[:NMODES]), rtol=1e-8)
+    np.testing.assert_allclose(s["eigen"]["references"]["fe_gauss_hz"], hz(lam[:NMODES]), rtol=1e-8)
 
 
 @pytest.mark.parametrize("element", ["q4", "q8", "q9"])
@@ -192,10 +192,11 @@ def test_variants_match_dense_reference(cli, ref_shapes, element, ppc, extra, bc
     K, M, dofs, _ = dense_model(ref_shapes, element, CELLS, SIZE, ppc, E, NU, RHO, placement,
                                 bcs)
     lam, _ = dense_eigen(K, M)
-    assert s["ndof"] == len(dofs)
+    assert s["eigen"]["ndof"] == len(dofs)
     for solver in ("jacobi", "slepc"):
-        np.testing.assert_allclose(s["frequencies_hz"][solver], hz(lam[:NMODES]), rtol=1e-8,
-                                   err_msg=solver)
+        np.testing.assert_allclose(
+            s["eigen"]["frequencies_hz"][solver], hz(lam[:NMODES]), rtol=1e-8, err_msg=solver
+        )
 
 
 def test_dense_reference_reproduces_table3_q4(ref_shapes):

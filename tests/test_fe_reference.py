@@ -56,9 +56,9 @@ def test_the_fe_reference_is_the_scenes_own(strip):
     """The FE's settlement at the axis, its mean under the load and the monitor's p / q at
     the report times, and its undrained and drained ends, are biot.solve's of the scene."""
     s = strip[0].summary
-    o, fe = s["provenance"]["options"]["mpm"], s["fe_reference"]
+    o, fe = s["provenance"]["options"]["mpm"], s["consolidation"]["fe_reference"]
     assert fe["available"] and fe["cells"] == [16, 8] and fe["axis_x_m"] == 0.0
-    t = s["consolidation_degree"]["t"]
+    t = s["consolidation"]["consolidation_degree"]["t"]
     q = o["load"]
     mean = _biot(o, t, [fe["monitor_m"]])
     axis = _biot(o, t, [fe["monitor_m"]], surface=[0.0])
@@ -75,7 +75,11 @@ def test_the_errors_are_the_runs_against_the_fe(strip):
     run's own numbers (consolidation_degree, monitor), printed in one table."""
     res, _ = strip
     s = res.summary
-    fe, deg, mon = s["fe_reference"], s["consolidation_degree"], s["monitor"]
+    fe, deg, mon = (
+        s["consolidation"]["fe_reference"],
+        s["consolidation"]["consolidation_degree"],
+        s["consolidation"]["monitor"],
+    )
     assert fe["settlement_axis_m"] == deg["settlement_axis_m"]
     assert fe["settlement_mean_m"] == deg["settlement_m"]
     assert fe["p_over_q"] == mon["p_over_q"]
@@ -94,7 +98,7 @@ def test_the_errors_are_the_runs_against_the_fe(strip):
     assert float(row[0]) == 0.01 and float(row[1]) == pytest.approx(
         1e3 * deg["settlement_axis_m"][0], abs=1e-4)
     # No Terzaghi and no other reference's error columns.
-    assert "Terzaghi" not in res.stdout and s["reference"]["available"] is False
+    assert "Terzaghi" not in res.stdout and s["consolidation"]["reference"]["available"] is False
 
 
 def _profile(out, Tv):
@@ -109,7 +113,7 @@ def test_the_monitor_is_the_point_under_the_axis(strip):
     highest below mid-height (8 x 4 cells, 2 x 2 points: (0.0625, 0.4375) m), not the mean
     of the row across the width (the issue: 0.247 against 0.681 under the axis)."""
     res, out = strip
-    mon = res.summary["monitor"]
+    mon = res.summary["consolidation"]["monitor"]
     assert (mon["x"], mon["height"]) == (0.0625, 0.4375)
     assert "monitor at (x, y) = (0.0625, 0.4375) m" in res.stdout
     for Tv, p in zip(mon["Tv"], mon["p_over_q"]):
@@ -127,7 +131,7 @@ def test_settlement_at_the_axis_and_under_the_load(strip):
     in settlement.csv by name."""
     res, out = strip
     s = res.summary
-    deg = s["consolidation_degree"]
+    deg = s["consolidation"]["consolidation_degree"]
     rows = np.loadtxt(out / "settlement_trough.csv", delimiter=",", skiprows=1)
     for Tv, axis, mean in zip(deg["Tv"], deg["settlement_axis_m"], deg["settlement_m"]):
         r = rows[rows[:, 0] == Tv]
@@ -153,12 +157,12 @@ def test_the_trough_file_says_what_its_rows_are(strip):
                                "Tv = inf: the static final one")
     rows = np.loadtxt(out / "settlement_trough.csv", delimiter=",", skiprows=1)
     assert set(rows[:, 0]) == {0.0, 0.01, 0.05, np.inf}
-    static = res.summary["static_references"]
+    static = res.summary["consolidation"]["static_references"]
     ends = rows[rows[:, 0] == np.inf]
     assert ends[0, 1] == 0.0 and ends[-1, 1] == 2.0          # the top nodes
     o = res.summary["provenance"]["options"]["mpm"]
     x = rows[rows[:, 0] == 0.01, 1]
-    t = res.summary["consolidation_degree"]["t"][0]
+    t = res.summary["consolidation"]["consolidation_degree"]["t"][0]
     ref = _biot(o, [t], [[0.5, 0.5]], surface=x)
     np.testing.assert_allclose(rows[rows[:, 0] == 0.01, 3], ref.settlement[0], rtol=0,
                                atol=2e-4 * static["final_m"])
@@ -176,17 +180,23 @@ def test_fe_reference_csv(strip):
                                    "monitor_excess_p_over_q_compression_positive"]
     assert "t_s = 0 undrained (t = 0+), t_s = inf drained (p = 0)" in lines[1]
     rows = np.loadtxt(out / "fe_reference.csv", delimiter=",", skiprows=1)
-    fe = res.summary["fe_reference"]
+    fe = res.summary["consolidation"]["fe_reference"]
     assert rows[-2, 0] == 0.0 and rows[-1, 0] == np.inf and rows[-1, 4] == 0.0
     assert rows[-1, 3] == pytest.approx(fe["drained"]["settlement_mean_m"], rel=1e-12)
-    for t, s in zip(res.summary["consolidation_degree"]["t"], fe["fe_settlement_mean_m"]):
+    for t, s in zip(
+        res.summary["consolidation"]["consolidation_degree"]["t"], fe["fe_settlement_mean_m"]
+    ):
         assert rows[np.isclose(rows[:, 0], t, rtol=1e-12), 3] == pytest.approx(s, rel=1e-12)
     # The curve's times: halvings of time before the first report, ten at most, down to the
     # run's first sample (10 explicit steps, or the implicit scheme's first step).
     t = rows[:-2, 0]
-    first = np.flatnonzero(np.isclose(t, res.summary["consolidation_degree"]["t"][0]))[0]
+    first = np.flatnonzero(
+        np.isclose(t, res.summary["consolidation"]["consolidation_degree"]["t"][0])
+    )[0]
     assert first >= 3 and np.allclose(t[1:first + 1] / t[:first], 2.0)
-    sample = res.summary["dt"] * (10 if res.summary["scheme"] == "explicit" else 1)
+    sample = res.summary["consolidation"]["dt"] * (
+        10 if res.summary["consolidation"]["scheme"] == "explicit" else 1
+    )
     assert t[0] >= sample and (sample > t[0] / 2 or first == 10)
 
 
@@ -226,10 +236,11 @@ def test_gravity_at_rest_reports_the_excess_against_the_same_fe(cli, tmp_path, s
     res = cli([*args, "-mpm_initial_state", "geostatic"], options_file="consolidation-strip",
               out_dir=tmp_path / "geo")
     geo = check_ok(res)
-    assert geo["monitor"]["p_over_q"][0] == pytest.approx(plain["monitor"]["p_over_q"][0],
-                                                         abs=2e-3)
-    assert geo["fe_reference"]["fe_p_over_q"][0] == pytest.approx(
-        plain["fe_reference"]["fe_p_over_q"][0], rel=1e-9)
+    assert geo["consolidation"]["monitor"]["p_over_q"][0] == pytest.approx(
+        plain["consolidation"]["monitor"]["p_over_q"][0], abs=2e-3
+    )
+    assert geo["consolidation"]["fe_reference"]["fe_p_over_q"][0] == pytest.approx(
+        plain["consolidation"]["fe_reference"]["fe_p_over_q"][0], rel=1e-9)
     head = (tmp_path / "geo" / "monitor.csv").read_text().splitlines()[0]
     assert head == "t_s,Tv,excess_p_over_q_compression_positive"
     _, y0, pq = _profile(tmp_path / "geo", 0.01)
@@ -238,7 +249,7 @@ def test_gravity_at_rest_reports_the_excess_against_the_same_fe(cli, tmp_path, s
     np.testing.assert_allclose(pq - excess, 1000 * 9.81 * (1 - y0) / 1e4, rtol=1e-9)
     res = cli([*args], options_file="consolidation-strip", out_dir=tmp_path / "dep")
     dep = check_ok(res)
-    assert dep["fe_reference"] == {"available": False, "why": fe_reference.why_not(
+    assert dep["consolidation"]["fe_reference"] == {"available": False, "why": fe_reference.why_not(
         plan.References(1, 1, 1, 1, 1, why="x"), Loading(gravity=9.81), True)}
     assert res.stdout.count("No FE reference: a fresh deposit under gravity") == 1
     assert not (tmp_path / "dep" / "fe_reference.csv").exists()
@@ -249,12 +260,15 @@ def test_monitor_placed_by_option(cli, tmp_path):
     s = check_ok(cli([*SHORT[:4], "-mpm_Tv_end", "0.01", "-mpm_Tv_report", "0.01",
                       "-mpm_progress", "0", "-mpm_figures", "0", "-mpm_monitor", "1,0.2"],
                      options_file="consolidation-strip", out_dir=tmp_path))
-    assert (s["monitor"]["x"], s["monitor"]["height"]) == (1.0625, 0.1875)
+    assert (s["consolidation"]["monitor"]["x"], s["consolidation"]["monitor"]["height"]) == (
+        1.0625,
+        0.1875,
+    )
     o = s["provenance"]["options"]["mpm"]
-    ref = _biot(o, s["consolidation_degree"]["t"], [[1.0625, 0.1875]])
-    assert s["fe_reference"]["fe_p_over_q"][0] == pytest.approx(
+    ref = _biot(o, s["consolidation"]["consolidation_degree"]["t"], [[1.0625, 0.1875]])
+    assert s["consolidation"]["fe_reference"]["fe_p_over_q"][0] == pytest.approx(
         ref.pressure[0, 0] / o["load"], abs=2e-4)
-    assert s["fe_reference"]["monitor_m"] == [1.0625, 0.1875]
+    assert s["consolidation"]["fe_reference"]["monitor_m"] == [1.0625, 0.1875]
 
 
 @pytest.mark.parametrize("args, message", [
@@ -349,9 +363,9 @@ def test_layers_under_a_local_load_against_their_fe(cli, tmp_path):
     s = check_ok(cli(["-mpm_cells", "16,8", "-mpm_fe_cells", "32,16", "-mpm_Tv_end", "0.01",
                       "-mpm_Tv_report", "0.01", "-mpm_progress", "0", "-mpm_figures", "0"],
                      options_file="consolidation-strip-layered", out_dir=tmp_path))
-    o, fe = s["provenance"]["options"]["mpm"], s["fe_reference"]
+    o, fe = s["provenance"]["options"]["mpm"], s["consolidation"]["fe_reference"]
     assert o["layers"] == [0.5, 1.5] and fe["axis_x_m"] == 0.0
-    t = s["consolidation_degree"]["t"]
+    t = s["consolidation"]["consolidation_degree"]["t"]
     mean = _biot(o, t, [fe["monitor_m"]], cells=(32, 16))
     axis = _biot(o, t, [fe["monitor_m"]], surface=[0.0], cells=(32, 16))
     assert fe["fe_p_over_q"][0] == pytest.approx(mean.pressure[0, 0] / o["load"], abs=2e-4)

@@ -155,11 +155,11 @@ def test_strip_within_one_percent_of_its_fe(cli, tmp_path):
     0.34 % and 0.19 % of q at most)."""
     s = check_ok(cli(["-mpm_scheme", "implicit", "-mpm_figures", "0", "-mpm_Tv_end", "1",
                       "-mpm_Tv_report", "0.01,0.1,1"], options_file="consolidation-strip"))
-    fe = s["fe_reference"]
-    assert fe["available"] and s["scheme"] == "implicit"
+    fe = s["consolidation"]["fe_reference"]
+    assert fe["available"] and s["consolidation"]["scheme"] == "implicit"
     assert np.max(np.abs(fe["error_settlement_mean_pct"])) < 1.0
     assert np.max(fe["error_rms_pct_of_q"]) < 1.0
-    assert s["implicit"]["factorizations"] <= 40
+    assert s["consolidation"]["implicit"]["factorizations"] <= 40
 
 
 def test_ranks_agree_and_a_restart_continues_exactly(cli, tmp_path):
@@ -173,8 +173,12 @@ def test_ranks_agree_and_a_restart_continues_exactly(cli, tmp_path):
     end = ["-mpm_Tv_end", "0.2", "-mpm_Tv_report", "0.05,0.2"]
     runs = [check_ok(cli(base + end, ranks=n, out_dir=tmp_path / str(n), process=True))
             for n in (1, 2)]
-    np.testing.assert_allclose(runs[1]["monitor"]["p_over_q"], runs[0]["monitor"]["p_over_q"],
-                               rtol=0, atol=1e-10)
+    np.testing.assert_allclose(
+        runs[1]["consolidation"]["monitor"]["p_over_q"],
+        runs[0]["consolidation"]["monitor"]["p_over_q"],
+        rtol=0,
+        atol=1e-10,
+    )
     part = cli(base + ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05",
                        "-mpm_checkpoint_every", "40"], ranks=2, out_dir=tmp_path / "part",
                process=True)
@@ -183,10 +187,16 @@ def test_ranks_agree_and_a_restart_continues_exactly(cli, tmp_path):
     rest = check_ok(cli(["-mpm_restart", str(ckpt)] + end + ["-mpm_output",
                                                               str(tmp_path / "rest")],
                         out_dir=tmp_path / "rest"))
-    np.testing.assert_allclose(rest["monitor"]["p_over_q"][-1],
-                               runs[0]["monitor"]["p_over_q"][-1], rtol=0, atol=1e-12)
-    s_full = runs[0]["consolidation_degree"]["settlement_m"][-1]
-    assert rest["consolidation_degree"]["settlement_m"][-1] == pytest.approx(s_full, rel=1e-10)
+    np.testing.assert_allclose(
+        rest["consolidation"]["monitor"]["p_over_q"][-1],
+        runs[0]["consolidation"]["monitor"]["p_over_q"][-1],
+        rtol=0,
+        atol=1e-12,
+    )
+    s_full = runs[0]["consolidation"]["consolidation_degree"]["settlement_m"][-1]
+    assert rest["consolidation"]["consolidation_degree"]["settlement_m"][-1] == pytest.approx(
+        s_full, rel=1e-10
+    )
 
 
 @pytest.mark.parametrize("args, message", [
@@ -208,7 +218,11 @@ def test_linear_solver_options_reach_the_solver(cli, tmp_path):
     a = check_ok(cli(base, out_dir=tmp_path / "mumps"))
     b = check_ok(cli(base + ["-mpm_pc_factor_mat_solver_type", "petsc"],
                      out_dir=tmp_path / "petsc"))
-    np.testing.assert_allclose(b["monitor"]["p_over_q"], a["monitor"]["p_over_q"], atol=1e-12)
+    np.testing.assert_allclose(
+        b["consolidation"]["monitor"]["p_over_q"],
+        a["consolidation"]["monitor"]["p_over_q"],
+        atol=1e-12,
+    )
 
 
 def test_auto_picks_the_implicit_scheme_for_the_strip_and_honours_an_explicit_option():
@@ -234,10 +248,10 @@ def test_auto_counts_the_work_each_scheme_does(cli, tmp_path):
     work = choice.costs(choice.Request.from_options(p), *_scene_of(p), reporting.ISOCHRONES)
     base = ["-mpm_analysis", "consolidation", "-mpm_figures", "0", *args]
     implicit = check_ok(cli(base + ["-mpm_scheme", "implicit"], out_dir=tmp_path / "i"))
-    assert work["implicit_solves"] == implicit["implicit"]["solves"]
+    assert work["implicit_solves"] == implicit["consolidation"]["implicit"]["solves"]
     explicit = check_ok(cli(base + ["-mpm_scheme", "explicit"], out_dir=tmp_path / "e"))
     assert work["explicit_steps"] <= explicit["steps"] < 2 * work["explicit_steps"]
-    assert work["points"] == explicit["n_points"]
+    assert work["points"] == explicit["consolidation"]["n_points"]
 
 
 def _scene_of(p):

@@ -23,10 +23,17 @@ QUIET = ["-mpm_scheme", "explicit", "-mpm_progress", "0", "-mpm_figures", "0"]
 def _consistent_errors(s):
     """Percent errors at the monitor against compressible-water Terzaghi, recomputed here."""
     H = 1.0
-    depth = H - s["monitor"]["height"]
+    depth = H - s["consolidation"]["monitor"]["height"]
     out = {}
-    for Tv, num in zip(s["monitor"]["Tv"], s["monitor"]["p_over_q"]):
-        ref = terzaghi(depth, Tv * s["c2"] / s["c_v"], H, s["p0_consistent_over_q"])
+    for Tv, num in zip(
+        s["consolidation"]["monitor"]["Tv"], s["consolidation"]["monitor"]["p_over_q"]
+    ):
+        ref = terzaghi(
+            depth,
+            Tv * s["consolidation"]["c2"] / s["consolidation"]["c_v"],
+            H,
+            s["consolidation"]["p0_consistent_over_q"],
+        )
         out[Tv] = 100 * (num - ref) / ref
     return out
 
@@ -103,13 +110,21 @@ def test_implicit_and_explicit_drag_agree_on_m1_q4(cli, tmp_path):
     e = check_ok(cli(args, options_file="consolidation-m1-q4", out_dir=tmp_path / "e"))
     i = check_ok(cli(args + ["-mpm_drag", "implicit"], options_file="consolidation-m1-q4",
                      out_dir=tmp_path / "i"))
-    assert e["drag"] == "explicit" and i["drag"] == "implicit"
-    pe, pi = np.array(e["monitor"]["p_over_q"]), np.array(i["monitor"]["p_over_q"])
+    assert e["consolidation"]["drag"] == "explicit" and i["consolidation"]["drag"] == "implicit"
+    pe, pi = np.array(e["consolidation"]["monitor"]["p_over_q"]), np.array(
+        i["consolidation"]["monitor"]["p_over_q"]
+    )
     assert np.all(np.abs(pi - pe) < 1e-3 * pe), (pe, pi)
     # The drag criterion only limits explicit drag: the implicit step's own limit is that of
     # the undrained wave, above 2 / lambda.
-    assert i["dt_critical"]["discrete"] > 1.5 * i["dt_critical"]["drag"]
-    assert e["dt_critical"]["discrete"] < 1.01 * e["dt_critical"]["drag"]
+    assert (
+        i["consolidation"]["dt_critical"]["discrete"]
+        > 1.5 * i["consolidation"]["dt_critical"]["drag"]
+    )
+    assert (
+        e["consolidation"]["dt_critical"]["discrete"]
+        < 1.01 * e["consolidation"]["dt_critical"]["drag"]
+    )
 
 
 IMPLICIT_LIMITS = [("m1-q4", []), ("m2-q4", []), ("m1-q9", []),
@@ -143,17 +158,17 @@ def test_regime_printed_and_warning(cli, tmp_path):
     res = cli(s_args, options_file="consolidation-m1-q4")
     s = check_ok(res)
     T_w, T_c, Pi = _regime_by_hand(1e8, 2.5e-4)
-    reg = s["regime"]
+    reg = s["consolidation"]["regime"]
     assert reg["Pi"] == pytest.approx(Pi, rel=1e-9) and Pi == pytest.approx(58.6, abs=0.1)
     assert reg["wave_period_s"] == pytest.approx(T_w, rel=1e-9)
     assert reg["consolidation_time_s"] == pytest.approx(T_c, rel=1e-9)
-    assert reg["mass_scaling"] == 1.0 and s["mass_scaling"] == 1.0
+    assert reg["mass_scaling"] == 1.0 and s["consolidation"]["mass_scaling"] == 1.0
     assert "Pi = 58.59" in res.stdout
     assert "WARNING: inertia biases p at T_v = 0.05" in res.stdout
-    assert any("inertia" in w for w in s["warnings"])
+    assert any("inertia" in w for w in s["consolidation"]["warnings"])
     # The measured bias is indeed visible (more than 1 % of q) ...
     err = _consistent_errors(s)[0.05]
-    assert abs(err) * s["monitor"]["consistent"][0] > 1.0
+    assert abs(err) * s["consolidation"]["monitor"]["consistent"][0] > 1.0
     # ... and the paper's column (Pi = 435) at T_v = 0.02 has no warning.
     res = cli(QUIET + ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02"],
               options_file="consolidation-m1-q4", out_dir=tmp_path / "paper")
@@ -169,14 +184,17 @@ def test_auto_meets_its_tolerance_on_the_paper_column(cli, tmp_path):
     ref = check_ok(cli(args, options_file="consolidation-m1-q4", out_dir=tmp_path / "ref"))
     auto = check_ok(cli(args + ["-mpm_mass_scaling", "auto"],
                         options_file="consolidation-m1-q4", out_dir=tmp_path / "auto"))
-    S = auto["mass_scaling"]
+    S = auto["consolidation"]["mass_scaling"]
     assert S > 2 and auto["steps"] < ref["steps"] / math.sqrt(S) * 1.05
     # Pi_S = Pi / sqrt(S), and the stated criteria hold at the chosen S.
-    reg = auto["regime"]
+    reg = auto["consolidation"]["regime"]
     assert reg["Pi_S"] == pytest.approx(reg["Pi"] / math.sqrt(S), rel=1e-12)
     assert max(reg["wave_error"], reg["drag_lag_error"]) <= reg["tolerance"] * 1.01
     assert reg["Pi_S"] >= reg["Pi_S_min"] * 0.99
-    dp = abs(auto["monitor"]["p_over_q"][0] - ref["monitor"]["p_over_q"][0])
+    dp = abs(
+        auto["consolidation"]["monitor"]["p_over_q"][0]
+        - ref["consolidation"]["monitor"]["p_over_q"][0]
+    )
     assert dp <= reg["tolerance"], dp
 
 
@@ -185,7 +203,7 @@ def test_auto_columns_within_one_percent(cli, k):
     """The stiff column (Pi ~ 6) and the E = 1e8 column (Pi ~ 59), scaled down by auto:
     within 1 % of compressible-water Terzaghi at T_v = 0.1, 0.5 and 1."""
     s = check_ok(cli(QUIET + ["-mpm_k", k], options_file="consolidation-stiff", timeout=300))
-    assert s["mass_scaling"] < 0.1
+    assert s["consolidation"]["mass_scaling"] < 0.1
     err = _consistent_errors(s)
     assert sorted(err) == [0.1, 0.5, 1.0]
     assert all(abs(e) < 1.0 for e in err.values()), err
@@ -194,10 +212,22 @@ def test_auto_columns_within_one_percent(cli, k):
 # -- damping without bias ------------------------------------------------------------------
 def _errors_of_q(s):
     """Errors at the monitor against compressible-water Terzaghi, % of q, by T_v."""
-    depth = 1.0 - s["monitor"]["height"]
-    return {Tv: 100 * (num - terzaghi(depth, Tv * s["c2"] / s["c_v"], 1.0,
-                                      s["p0_consistent_over_q"]))
-            for Tv, num in zip(s["monitor"]["Tv"], s["monitor"]["p_over_q"])}
+    depth = 1.0 - s["consolidation"]["monitor"]["height"]
+    return {
+        Tv: 100
+        * (
+            num
+            - terzaghi(
+                depth,
+                Tv * s["consolidation"]["c2"] / s["consolidation"]["c_v"],
+                1.0,
+                s["consolidation"]["p0_consistent_over_q"],
+            )
+        )
+        for Tv, num in zip(
+            s["consolidation"]["monitor"]["Tv"], s["consolidation"]["monitor"]["p_over_q"]
+        )
+    }
 
 
 def test_fast_damping_leaves_the_settlement_alone(cli, tmp_path):
@@ -235,8 +265,8 @@ def test_clay_scene(cli, tmp_path):
     s = check_ok(cli(QUIET, options_file="consolidation-clay", timeout=600))
     err = _consistent_errors(s)
     assert all(abs(e) < 2.0 for e in err.values()), err
-    assert s["monitor"]["Tv"] == [0.1, 0.5] and s["steps"] < 1e5
-    assert s["dt"] * s["steps"] > 3.6e4                   # more than 10 hours
+    assert s["consolidation"]["monitor"]["Tv"] == [0.1, 0.5] and s["steps"] < 1e5
+    assert s["consolidation"]["dt"] * s["steps"] > 3.6e4                   # more than 10 hours
     out = tmp_path / "never"
     res = cli(["-mpm_mass_scaling", "none"], options_file="consolidation-clay", out_dir=out,
               timeout=60)
@@ -264,9 +294,15 @@ def test_two_ranks_equal_one(cli, tmp_path):
     a = check_ok(cli(args, options_file="consolidation-clay", out_dir=tmp_path / "n1"))
     b = check_ok(cli(args, ranks=2, options_file="consolidation-clay",
                      out_dir=tmp_path / "n2"))
-    assert a["mass_scaling"] == b["mass_scaling"] and a["dt"] == b["dt"]
-    np.testing.assert_allclose(b["monitor"]["p_over_q"], a["monitor"]["p_over_q"],
-                               rtol=1e-10)
+    assert (
+        a["consolidation"]["mass_scaling"] == b["consolidation"]["mass_scaling"]
+        and a["consolidation"]["dt"] == b["consolidation"]["dt"]
+    )
+    np.testing.assert_allclose(
+        b["consolidation"]["monitor"]["p_over_q"],
+        a["consolidation"]["monitor"]["p_over_q"],
+        rtol=1e-10,
+    )
 
 
 @pytest.mark.mpi(2)
@@ -284,9 +320,12 @@ def test_restart_keeps_scaling_and_drag(cli, tmp_path):
     rest = check_ok(cli(QUIET + ["-mpm_Tv_end", "0.1", "-mpm_Tv_report", "0.1",
                                  "-mpm_restart", ckpt], ranks=2, options_file=scene,
                         out_dir=tmp_path / "rest"))
-    assert rest["mass_scaling"] == full["mass_scaling"] and rest["drag"] == "implicit"
-    np.testing.assert_allclose(rest["monitor"]["p_over_q"][-1],
-                               full["monitor"]["p_over_q"][-1], rtol=1e-10)
+    assert (
+        rest["consolidation"]["mass_scaling"] == full["consolidation"]["mass_scaling"]
+        and rest["consolidation"]["drag"] == "implicit"
+    )
+    np.testing.assert_allclose(rest["consolidation"]["monitor"]["p_over_q"][-1],
+                               full["consolidation"]["monitor"]["p_over_q"][-1], rtol=1e-10)
     for option, value in (("-mpm_drag", "explicit"), ("-mpm_mass_scaling", "1e9")):
         res = cli(QUIET + [option, value, "-mpm_restart", ckpt], options_file=scene,
                   out_dir=tmp_path / "bad")
@@ -384,12 +423,12 @@ def test_strip_auto_keeps_its_promise(cli, tmp_path):
     (the former auto, S = 0.277, swung by 20 % about the FE's); reported at T_v = 0.05 alone (S 8 times larger) p and the
     settlement at 0.05 move by less than twice the tolerance."""
     s, rows, prof = _strip(cli, tmp_path / "auto")
-    reg, H = s["regime"], 1.0
+    reg, H = s["consolidation"]["regime"], 1.0
     E_c, rho = 10e6, 0.7 * 2700 + 0.3 * 1000
     assert reg["wave_period_s"] == pytest.approx(4 * H / math.sqrt(E_c / rho), rel=5e-3)
     assert reg["wave_period_s"] > 6 * reg["undrained_period_s"]
     assert reg["wave_error"] <= reg["tolerance"] * 1.01
-    S = s["mass_scaling"]
+    S = s["consolidation"]["mass_scaling"]
     ref, ref_rows, ref_prof = _strip(cli, tmp_path / "ref", "-mpm_mass_scaling", f"{S / 10:g}")
     for tv in (0.01, 0.05):
         dp = np.abs(prof[tv][:, 4] - ref_prof[tv][:, 4]).max()
@@ -400,7 +439,7 @@ def test_strip_auto_keeps_its_promise(cli, tmp_path):
     assert swing.max() < reg["tolerance"], swing.max()
     # The report times move S; the answer at T_v = 0.05 stays.
     late, late_rows, late_prof = _strip(cli, tmp_path / "late", reports="0.05")
-    assert late["mass_scaling"] > 5 * S
+    assert late["consolidation"]["mass_scaling"] > 5 * S
     assert np.abs(late_prof[0.05][:, 4] - prof[0.05][:, 4]).max() < 2 * reg["tolerance"]
     s_a, s_b = _at(rows, prof[0.05][0, 1]), _at(late_rows, late_prof[0.05][0, 1])
     assert abs(s_b / s_a - 1) < 2 * reg["tolerance"]
@@ -412,8 +451,8 @@ def test_strip_estimate_bounds_the_measured_error(cli, tmp_path):
     measures against the inertia-free run (S = 0.00277) is within that: max |dp| 2.3 % of
     q, the settlement 4.3 % off."""
     s, rows, prof = _strip(cli, tmp_path / "big", "-mpm_mass_scaling", "0.277")
-    reg = s["regime"]
-    assert reg["wave_error"] > 0.2 and any("inertia" in w for w in s["warnings"])
+    reg = s["consolidation"]["regime"]
+    assert reg["wave_error"] > 0.2 and any("inertia" in w for w in s["consolidation"]["warnings"])
     ref, ref_rows, ref_prof = _strip(cli, tmp_path / "ref", "-mpm_mass_scaling", "0.00277")
     dp = np.abs(prof[0.01][:, 4] - ref_prof[0.01][:, 4]).max()
     assert 0.005 < dp <= reg["wave_error"], dp

@@ -21,13 +21,27 @@ from solver.references import layered, static
 
 Q = 10e3
 # Two layers, contrast 4 in E and 10 in k, compressible water (the issue's scene).
-TWO = ["-mpm_analysis", "consolidation", "-mpm_scheme", "explicit", "-mpm_layers", "0.5,0.5", "-mpm_E", "40e6,10e6",
-       "-mpm_k", "2.5e-4,2.5e-5", "-mpm_progress", "0", "-mpm_figures", "0"]
+TWO = [
+    "-mpm_analysis",
+    "consolidation",
+    "-mpm_scheme",
+    "explicit",
+    "-mpm_layers",
+    "0.5,0.5",
+    "-mpm_E",
+    "40e6,10e6",
+    "-mpm_k",
+    "2.5e-4,2.5e-5",
+    "-mpm_progress",
+    "0",
+    "-mpm_figures",
+    "0",
+]
 
 
 def _column(summary, drained=("top",), K_l=True):
     """The layered reference of the run's summary (its layers, load q = Q)."""
-    lay = summary["layers"]
+    lay = summary["consolidation"]["layers"]
     return layered.LayeredColumn(
         [s["thickness_m"] for s in lay], [constrained_modulus(s["E"], s["nu"]) for s in lay],
         [s["k"] for s in lay], [s["porosity"] for s in lay], lay[0]["rho_l"] * G_REF,
@@ -46,8 +60,8 @@ def test_two_layers_within_two_percent_of_their_reference(cli, tmp_path):
     out = tmp_path / "two"
     s = check_ok(cli(TWO + ["-mpm_cells", "1,40", "-mpm_Tv_end", "0.5", "-mpm_Tv_report",
                             "0.02,0.05,0.2,0.5"], out_dir=out, timeout=300))
-    assert [lay["E"] for lay in s["layers"]] == [40e6, 10e6]
-    assert "layered column" in s["reference"]["description"]
+    assert [lay["E"] for lay in s["consolidation"]["layers"]] == [40e6, 10e6]
+    assert "layered column" in s["consolidation"]["reference"]["description"]
     col = _column(s)
     rows = _profiles(out)
     times = np.unique(rows[:, 0])
@@ -58,9 +72,9 @@ def test_two_layers_within_two_percent_of_their_reference(cli, tmp_path):
         worst = max(worst, float(np.abs(r[:, 4] - col.pressure(r[:, 3], r[0, 1]) / Q).max()))
     assert worst < 0.02
     # U is the layered column's, from the settlement (measured: within 0.2 % of it).
-    U = s["consolidation_degree"]
+    U = s["consolidation"]["consolidation_degree"]
     for Tv, con in zip(U["Tv"], U["consistent"]):      # T_v = c_v t / H^2, H = 1 m
-        assert con == pytest.approx(float(col.degree(Tv / s["c_v"])), rel=1e-9)
+        assert con == pytest.approx(float(col.degree(Tv / s["consolidation"]["c_v"])), rel=1e-9)
     assert max(abs(e) for e in U["error_settlement_consistent_pct"]) < 2.0
 
 
@@ -102,8 +116,16 @@ def test_discrete_limit_of_layered_ground_is_sharp(cli, tmp_path):
                    "-mpm_damping", "0", "-mpm_fast_damping", "0"]
     s = check_ok(cli(scene + ["-mpm_Tv_end", "1e-3", "-mpm_Tv_report", "1e-3"],
                      out_dir=tmp_path / "limit"))
-    limit = s["dt_critical"]["discrete"]
-    assert 0.3 < limit / min(s["dt_critical"]["undrained"], s["dt_critical"]["drag"]) < 2
+    limit = s["consolidation"]["dt_critical"]["discrete"]
+    assert (
+        0.3
+        < limit
+        / min(
+            s["consolidation"]["dt_critical"]["undrained"],
+            s["consolidation"]["dt_critical"]["drag"],
+        )
+        < 2
+    )
     for factor, code in ((0.97, 0), (1.03, 3)):
         res = cli(scene + ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.05", "-mpm_dt",
                            repr(factor * limit), "-mpm_stability_analysis", "0"],
@@ -125,7 +147,10 @@ def test_geostatic_layered_ground_drives_the_excess_of_the_load_alone(cli, tmp_p
     head = open(tmp_path / "geo" / "profiles.csv").readline().strip().split(",")
     excess = geo[:, head.index("excess_p_over_q_compression_positive")]
     np.testing.assert_allclose(excess, free[:, 4], rtol=0, atol=1e-3)
-    assert runs[1]["reference"]["description"] == runs[0]["reference"]["description"]
+    assert (
+        runs[1]["consolidation"]["reference"]["description"]
+        == runs[0]["consolidation"]["reference"]["description"]
+    )
 
 
 @pytest.mark.parametrize("extra", [[], ["-mpm_kinematics", "large", "-mpm_element", "q9",
@@ -139,8 +164,12 @@ def test_layers_on_one_and_two_ranks_agree_and_restart(cli, tmp_path, extra):
     end = ["-mpm_Tv_end", "0.05", "-mpm_Tv_report", "0.02,0.05"]
     runs = [check_ok(cli(base + end, ranks=n, out_dir=tmp_path / str(n), process=True))
             for n in (1, 2)]
-    np.testing.assert_allclose(runs[1]["monitor"]["p_over_q"], runs[0]["monitor"]["p_over_q"],
-                               rtol=0, atol=1e-10)
+    np.testing.assert_allclose(
+        runs[1]["consolidation"]["monitor"]["p_over_q"],
+        runs[0]["consolidation"]["monitor"]["p_over_q"],
+        rtol=0,
+        atol=1e-10,
+    )
     part = cli(base + ["-mpm_Tv_end", "0.02", "-mpm_Tv_report", "0.02",
                        "-mpm_checkpoint_every", "500"], ranks=2, out_dir=tmp_path / "part",
                process=True)
@@ -150,8 +179,12 @@ def test_layers_on_one_and_two_ranks_agree_and_restart(cli, tmp_path, extra):
     rest = check_ok(cli(["-mpm_restart", str(ckpt), "-mpm_Tv_end", "0.05", "-mpm_Tv_report",
                          "0.02,0.05", "-mpm_output", str(tmp_path / "rest")],
                         out_dir=tmp_path / "rest"))
-    np.testing.assert_allclose(rest["monitor"]["p_over_q"], runs[0]["monitor"]["p_over_q"],
-                               rtol=0, atol=1e-10)
+    np.testing.assert_allclose(
+        rest["consolidation"]["monitor"]["p_over_q"],
+        runs[0]["consolidation"]["monitor"]["p_over_q"],
+        rtol=0,
+        atol=1e-10,
+    )
     h5 = sorted((tmp_path / "1").glob("points_*.h5"))[-1]
     with h5py.File(h5) as fh:
         names = _datasets(fh)
@@ -198,16 +231,20 @@ def test_layered_scenes_agree_on_one_and_two_ranks(cli, tmp_path, scene, extra):
     runs = [check_ok(cli(extra + ["-mpm_progress", "0", "-mpm_figures", "0"], ranks=n,
                          options_file=scene, out_dir=tmp_path / str(n), process=True))
             for n in (1, 2)]
-    assert runs[1]["provenance"]["ranks"] == 2 and len(runs[0]["layers"]) == 2
-    np.testing.assert_allclose(runs[1]["monitor"]["p_over_q"], runs[0]["monitor"]["p_over_q"],
-                               rtol=0, atol=1e-10)
+    assert runs[1]["provenance"]["ranks"] == 2 and len(runs[0]["consolidation"]["layers"]) == 2
+    np.testing.assert_allclose(
+        runs[1]["consolidation"]["monitor"]["p_over_q"],
+        runs[0]["consolidation"]["monitor"]["p_over_q"],
+        rtol=0,
+        atol=1e-10,
+    )
     one, two = (_profiles(tmp_path / str(n)) for n in (1, 2))
     order = [np.lexsort((r[:, 2], r[:, 3], r[:, 0])) for r in (one, two)]
     np.testing.assert_allclose(two[order[1]], one[order[0]], rtol=0, atol=1e-10)
     if "static_references" in runs[0]:
         for key in ("undrained_m", "final_m", "settlement_last_m"):
-            assert runs[1]["static_references"][key] == pytest.approx(
-                runs[0]["static_references"][key], rel=1e-10)
+            assert runs[1]["consolidation"]["static_references"][key] == pytest.approx(
+                runs[0]["consolidation"]["static_references"][key], rel=1e-10)
         for key in ("fe_settlement_mean_m", "settlement_axis_m", "fe_p_over_q"):
-            np.testing.assert_allclose(runs[1]["fe_reference"][key],
-                                       runs[0]["fe_reference"][key], rtol=1e-9)
+            np.testing.assert_allclose(runs[1]["consolidation"]["fe_reference"][key],
+                                       runs[0]["consolidation"]["fe_reference"][key], rtol=1e-9)

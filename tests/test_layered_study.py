@@ -24,10 +24,12 @@ def study():
 def test_coarsest_q4_grid_within_bounds_of_the_layered_column(study, cli, tmp_path):
     out = tmp_path / "out"
     summary = check_ok(cli(study.options("q4", "1x10", str(out)), out_dir=out))
-    assert summary["n_points"] == 40 and summary["element"] == "q4"
-    assert [s["thickness_m"] for s in summary["layers"]] == [0.5, 0.5]
-    assert [s["E"] for s in summary["layers"]] == [40e6, 10e6]
-    assert [s["k"] for s in summary["layers"]] == [2.5e-3, 2.5e-4]
+    assert (
+        summary["consolidation"]["n_points"] == 40 and summary["consolidation"]["element"] == "q4"
+    )
+    assert [s["thickness_m"] for s in summary["consolidation"]["layers"]] == [0.5, 0.5]
+    assert [s["E"] for s in summary["consolidation"]["layers"]] == [40e6, 10e6]
+    assert [s["k"] for s in summary["consolidation"]["layers"]] == [2.5e-3, 2.5e-4]
     summary, rows = study.read(out)
     reports, worst, l2_each, l2 = study.errors(summary, rows)
     assert reports == [0.05, 0.2, 0.5]

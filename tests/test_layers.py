@@ -211,14 +211,14 @@ def test_three_layer_column_matches_the_layered_rod(cli, monkeypatch):
     monkeypatch.setattr(eigen, "mode_figure", keep)
     s = check_ok(cli([], options_file=SCENE))
     rod = _scene_rod(5)
-    np.testing.assert_allclose(s["references"]["rod_hz"], rod, rtol=1e-12)
+    np.testing.assert_allclose(s["eigen"]["references"]["rod_hz"], rod, rtol=1e-12)
     for solver in ("jacobi", "slepc"):
-        f = np.array(s["frequencies_hz"][solver][:3])
+        f = np.array(s["eigen"]["frequencies_hz"][solver][:3])
         assert np.all(np.abs(f / rod[:3] - 1) < 5e-3), (solver, f, rod[:3])
-    assert s["layers_m"] == list(THICKNESS) and len(s["density_kg_m3"]) == 3
-    assert s["cells"] == [1, 30] and s["element"] == "q9"
+    assert s["eigen"]["layers_m"] == list(THICKNESS) and len(s["eigen"]["density_kg_m3"]) == 3
+    assert s["eigen"]["cells"] == [1, 30] and s["eigen"]["element"] == "q9"
     # The FE Gauss reference is the same layered body: as close to the rod.
-    fe = np.array(s["references"]["fe_gauss_hz"][:3])
+    fe = np.array(s["eigen"]["references"]["fe_gauss_hz"][:3])
     assert np.all(np.abs(fe / rod[:3] - 1) < 5e-3)
     (fig,) = figs
     levels = sorted({ln.get_ydata()[0] for ax in fig.axes for ln in ax.get_lines()
@@ -233,12 +233,19 @@ def test_layered_scene_one_and_two_ranks_agree(cli, tmp_path):
     args = ["-mpm_figures", "0"]
     s1 = check_ok(cli(args, options_file=SCENE, out_dir=tmp_path / "n1"))
     s2 = check_ok(cli(args, ranks=2, options_file=SCENE, out_dir=tmp_path / "n2"))
-    assert (s1["provenance"]["ranks"], s2["provenance"]["ranks"]) == (1, 2) and s1["ndof"] == s2["ndof"]
+    assert (s1["provenance"]["ranks"], s2["provenance"]["ranks"]) == (1, 2) and s1["eigen"][
+        "ndof"
+    ] == s2["eigen"]["ndof"]
     for solver in ("jacobi", "slepc"):
-        np.testing.assert_allclose(s2["frequencies_hz"][solver], s1["frequencies_hz"][solver],
-                                   rtol=1e-10, atol=0, err_msg=solver)
-    np.testing.assert_allclose(s2["references"]["fe_gauss_hz"],
-                               s1["references"]["fe_gauss_hz"], rtol=1e-10)
+        np.testing.assert_allclose(
+            s2["eigen"]["frequencies_hz"][solver],
+            s1["eigen"]["frequencies_hz"][solver],
+            rtol=1e-10,
+            atol=0,
+            err_msg=solver,
+        )
+    np.testing.assert_allclose(s2["eigen"]["references"]["fe_gauss_hz"],
+                               s1["eigen"]["references"]["fe_gauss_hz"], rtol=1e-10)
 
 
 def test_the_scene_file_is_a_scene():

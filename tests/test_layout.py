@@ -1,9 +1,9 @@
 """The module layout: no module over MAX_LINES lines but the compiled kernels and the
 Jacobi solver, no analysis driver over MAX_DRIVER_LINES, no function over
 MAX_FUNCTION_LINES, and the options object at the edge: at most MAX_TAKING_OPTIONS functions
-take it. After the set-up the run works on typed values (the plans). The rooms of solver/ and the direction of
-their imports (no cycle, the analyses' drivers run by the command line alone) are
-tests/test_rooms.py's."""
+take it. After the set-up the run works on typed values (the plans). The rooms of solver/
+and the direction of their imports (no cycle, the analyses' drivers run by the command line
+alone) are tests/test_rooms.py's."""
 
 from __future__ import annotations
 

@@ -66,8 +66,8 @@ def test_nmodes_equal_to_dofs_is_accepted(cli):
               options_file="eigen-q4")
     assert res.returncode == 0, res.stderr[-3000:]
     for solver in ("jacobi", "slepc"):
-        assert len(res.summary["frequencies_hz"][solver]) == 20
-    assert max(res.summary["cross_check"]["relative_eigenvalue_difference"]) <= 1e-8
+        assert len(res.summary["eigen"]["frequencies_hz"][solver]) == 20
+    assert max(res.summary["eigen"]["cross_check"]["relative_eigenvalue_difference"]) <= 1e-8
 
 
 @pytest.mark.parametrize("args, name", [

@@ -100,7 +100,7 @@ def test_settlement_and_degree_against_terzaghi(m1):
     T_v = 0.1, -0.18 % at 0.5; against classic Terzaghi -2.03 % and -1.12 %; U from the
     settlement equals U from the pore pressure to 1e-4 (equilibrium)."""
     s, _, res = m1
-    d = s["consolidation_degree"]
+    d = s["consolidation"]["consolidation_degree"]
     assert d["Tv"] == list(REPORTS)
     assert d["s_inf_m"] == pytest.approx(S_INF, rel=1e-12)
     assert d["s0_m"] == pytest.approx(S_0, rel=1e-12)
@@ -147,7 +147,7 @@ def test_settlement_csv(m1):
     assert np.allclose(table[:, 1], CV * table[:, 0] / H ** 2, rtol=1e-12)
     # One row every 10 steps (and at the report times).
     assert len(table) >= s["steps"] // 10
-    d = s["consolidation_degree"]
+    d = s["consolidation"]["consolidation_degree"]
     last = table[-1]
     assert last[1] == pytest.approx(0.5, rel=1e-3)
     assert last[2] == pytest.approx(d["settlement_m"][-1], rel=1e-12)
@@ -181,10 +181,13 @@ def test_xdmf_series_at_the_report_times(m1):
     assert s["files"]["fields_xdmf"] == str(out / "points.xdmf")
     assert not list(out.glob("*.pvd")) and not list(out.glob("*.vtu"))
     points, cells, steps, geometry = _series(out / "points.xdmf")
-    n = s["n_points"]
+    n = s["consolidation"]["n_points"]
     assert points.shape == (n, 3) and [c.type for c in cells] == ["vertex"]
     assert len(cells[0].data) == n
-    want = [round(Tv * H ** 2 / (CV * s["dt"])) * s["dt"] for Tv in REPORTS]
+    want = [
+        round(Tv * H**2 / (CV * s["consolidation"]["dt"])) * s["consolidation"]["dt"]
+        for Tv in REPORTS
+    ]
     assert [t for t, _, _ in steps] == pytest.approx(want, rel=1e-12)
     assert len(list(out.glob("points_*.h5"))) == len(REPORTS)
     ppc, h = 2, 0.1
@@ -207,8 +210,9 @@ def test_xdmf_series_at_the_report_times(m1):
               for y in (0.925, 0.975)}
         settled = uy[0.975] + (uy[0.975] - uy[0.925]) / 2
         k = [round(w, 9) for w in want].index(round(t, 9))
-        assert settled == pytest.approx(s["consolidation_degree"]["settlement_m"][k],
-                                        rel=1e-9)
+        assert settled == pytest.approx(
+            s["consolidation"]["consolidation_degree"]["settlement_m"][k], rel=1e-9
+        )
         assert np.all(np.isfinite(data["pore_pressure"]))
 
 
@@ -307,7 +311,7 @@ def test_modes_file_carries_frequencies(paper_run, ranks):
     s = check_ok(res)
     mesh = meshio.read(out / "modes.vtu")
     freq = mesh.field_data["frequency_hz"]
-    np.testing.assert_allclose(freq, s["frequencies_hz"]["jacobi"], rtol=1e-15)
+    np.testing.assert_allclose(freq, s["eigen"]["frequencies_hz"]["jacobi"], rtol=1e-15)
     assert [round(f, 2) for f in freq] == [16.92, 51.27, 87.24, 126.03, 168.95]
     assert sorted(mesh.point_data) == [f"mode_{k}" for k in range(1, 6)]
     check_provenance(s, {"element": "q4", "cells": "1,10"})
@@ -420,15 +424,19 @@ def test_restart_continues_series_and_settlement(cli, tmp_path):
                               "-mpm_restart", out / "checkpoint.npz"], ranks=2,
                      options_file="consolidation-m1-q4", out_dir=out))
     _, _, steps, _ = _series(out / "points.xdmf")
-    want = [round(Tv * H ** 2 / (CV * s["dt"])) * s["dt"] for Tv in (0.01, 0.02, 0.05)]
+    want = [
+        round(Tv * H**2 / (CV * s["consolidation"]["dt"])) * s["consolidation"]["dt"]
+        for Tv in (0.01, 0.02, 0.05)
+    ]
     assert [t for t, _, _ in steps] == pytest.approx(want, rel=1e-12)
     assert len(list(out.glob("points_*.h5"))) == 3
-    d = s["consolidation_degree"]
+    d = s["consolidation"]["consolidation_degree"]
     assert d["Tv"] == [0.01, 0.02, 0.05]
-    assert d["settlement_m"][:2] == pytest.approx(first["consolidation_degree"]["settlement_m"],
-                                                  rel=1e-9)
+    assert d["settlement_m"][:2] == pytest.approx(
+        first["consolidation"]["consolidation_degree"]["settlement_m"], rel=1e-9
+    )
     table = np.loadtxt(out / "settlement.csv", delimiter=",", skiprows=1)
-    steps_done = np.round(table[:, 0] / s["dt"]).astype(int)
+    steps_done = np.round(table[:, 0] / s["consolidation"]["dt"]).astype(int)
     assert np.all(np.diff(steps_done) > 0) and steps_done[-1] == s["steps"]
     assert np.all(np.diff(steps_done) <= 10)
 

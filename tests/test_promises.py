@@ -41,7 +41,7 @@ def test_command_line_wins_before_the_scene_file(tmp_path):
     assert not (tmp_path / "output").exists()
     with open(tmp_path / "mine" / "summary.json") as fh:
         summary = json.load(fh)
-    assert len(summary["frequencies_hz"]["jacobi"]) == 2
+    assert len(summary["eigen"]["frequencies_hz"]["jacobi"]) == 2
 
 
 def test_restart_ending_before_its_checkpoint_is_refused(cli, tmp_path):
@@ -83,7 +83,7 @@ def test_footing_narrower_than_the_point_spacing(cli, tmp_path):
               options_file="consolidation-strip")
     summary = check_ok(res)
     assert res.stderr == ""
-    ends = summary["static_references"]
+    ends = summary["consolidation"]["static_references"]
     assert 0 < ends["undrained_m"] < ends["final_m"]
     assert ends["settlement_last_m"] > 0
 

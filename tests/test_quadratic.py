@@ -75,7 +75,7 @@ def runs(tmp_path_factory):
 
 def errors(summary, soil):
     """Signed monitor errors (%) against the independent reference, per report time."""
-    mon = summary["monitor"]
+    mon = summary["consolidation"]["monitor"]
     assert mon["Tv"] == list(REPORT)
     depth = soil["size"][1] - mon["height"]
     return [100 * (num / consistent_reference(soil, depth, tv) - 1)
@@ -90,11 +90,12 @@ def test_refinement_converges(runs, element):
     err = {ny: errors(s[ny], PAPER) for ny in s}
     for ny, summary in s.items():
         # The solver's own figure is the same measure.
-        np.testing.assert_allclose(summary["monitor"]["error_consistent_pct"], err[ny],
-                                   atol=1e-6)
+        np.testing.assert_allclose(
+            summary["consolidation"]["monitor"]["error_consistent_pct"], err[ny], atol=1e-6
+        )
     assert max(map(abs, err[20])) <= 0.5, err
     assert max(map(abs, err[40])) <= 0.3, err
-    l2 = {ny: s[ny]["profile_l2"]["consistent"] for ny in s}
+    l2 = {ny: s[ny]["consolidation"]["profile_l2"]["consistent"] for ny in s}
     for i in range(len(REPORT)):
         assert abs(err[10][i]) > abs(err[20][i]) > abs(err[40][i]), err
         assert l2[10][i] > l2[20][i] > l2[40][i], l2
@@ -104,14 +105,16 @@ def test_refinement_converges(runs, element):
 @pytest.mark.parametrize("soil", list(SOILS))
 def test_other_soils(runs, soil, element):
     s = check_ok(runs[(soil, element, 20)])
-    assert s["c2"] == pytest.approx(
+    assert s["consolidation"]["c2"] == pytest.approx(
         SOILS[soil]["k"] / (SOILS[soil]["rho_l"] * 9.81) / (
             (1 + SOILS[soil]["nu"]) * (1 - 2 * SOILS[soil]["nu"])
             / (SOILS[soil]["E"] * (1 - SOILS[soil]["nu"]))
             + SOILS[soil]["porosity"] / SOILS[soil]["K_l"]), rel=1e-12)
     err = errors(s, SOILS[soil])
     assert max(map(abs, err)) <= 0.5, err
-    assert max(s["profile_l2"]["consistent"]) <= 0.005, s["profile_l2"]
+    assert max(s["consolidation"]["profile_l2"]["consistent"]) <= 0.005, s["consolidation"][
+        "profile_l2"
+    ]
 
 
 def _two_way_errors(summary, out_dir):
@@ -155,7 +158,7 @@ def test_two_way_column_of_q8_cells(tmp_path):
                 "-mpm_Tv_report", ",".join(map(str, TWO_WAY_REPORTS)), "-mpm_progress", "0",
                 "-mpm_figures", "0"]
         s = check_ok(run_cli(["-mpm_analysis", "consolidation", *args], out, timeout=900))
-        assert s["pressure_projection"] == "corner"
+        assert s["consolidation"]["pressure_projection"] == "corner"
         errs[ny] = _two_way_errors(s, out)
     for tv in TWO_WAY_REPORTS:
         largest, spread = errs[20][tv]

@@ -70,9 +70,15 @@ def test_restart_alone_continues_the_run(cli, tmp_path):
     assert f"Restart from {ckpt} at step 700" in out
     rest = _summary(tmp_path / "run")
     assert rest["completed"] is True and rest["run_id"] == first["run_id"]
-    assert rest["steps"] == full["steps"] and rest["dt"] == full["dt"]
-    np.testing.assert_allclose(rest["monitor"]["p_over_q"], full["monitor"]["p_over_q"],
-                               rtol=1e-12)
+    assert (
+        rest["steps"] == full["steps"]
+        and rest["consolidation"]["dt"] == full["consolidation"]["dt"]
+    )
+    np.testing.assert_allclose(
+        rest["consolidation"]["monitor"]["p_over_q"],
+        full["consolidation"]["monitor"]["p_over_q"],
+        rtol=1e-12,
+    )
     mpm = rest["provenance"]["options"]["mpm"]
     assert mpm["load"] == 2e4 and mpm["monitor_height"] == 0.3 and mpm["Tv_end"] == 0.05
     assert rest["provenance"]["options"]["mpm_given"] == ["Tv_end", "restart"]
@@ -147,8 +153,8 @@ def test_restart_of_its_own_folder_keeps_its_series(cli, tmp_path):
                      out_dir=tmp_path / "run"))
     assert _index_files(tmp_path / "run" / "points.xdmf") == [
         f"points_{k:07d}.h5" for k in (535, 1071, 2677)]
-    assert s["fields"] == {"times": 3, "last_step": 2677,
-                           "last_t_s": pytest.approx(2677 * s["dt"], rel=1e-15)}
+    assert s["consolidation"]["fields"] == {"times": 3, "last_step": 2677,
+                           "last_t_s": pytest.approx(2677 * s["consolidation"]["dt"], rel=1e-15)}
 
 
 def test_checkpoint_of_an_older_format_still_restarts(cli, tmp_path):
@@ -161,8 +167,11 @@ def test_checkpoint_of_an_older_format_still_restarts(cli, tmp_path):
     s = check_ok(cli(QUIET + ["-mpm_Tv_end", "0.02", "-mpm_restart", ckpt],
                      options_file=M1, out_dir=tmp_path / "run"))
     assert s["steps"] == first["steps"]
-    np.testing.assert_allclose(s["monitor"]["p_over_q"], first["monitor"]["p_over_q"],
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        s["consolidation"]["monitor"]["p_over_q"],
+        first["consolidation"]["monitor"]["p_over_q"],
+        rtol=1e-12,
+    )
 
 
 def test_help_with_a_restart_shows_the_checkpoints_options(cli, tmp_path):
@@ -182,11 +191,13 @@ def test_shortened_run_writes_its_last_state(cli, tmp_path):
     report time; the run says so."""
     res = cli(QUIET + ["-mpm_Tv_end", "0.1"], options_file=M1, out_dir=tmp_path)
     s = check_ok(res)
-    t_end = s["steps"] * s["dt"]
-    assert t_end == pytest.approx(0.1 * 1.0 ** 2 / s["c_v"], rel=1e-3)
+    t_end = s["steps"] * s["consolidation"]["dt"]
+    assert t_end == pytest.approx(0.1 * 1.0 ** 2 / s["consolidation"]["c_v"], rel=1e-3)
     times = [t for t, _ in _times(tmp_path / "points.xdmf")]
     assert times[-1] == pytest.approx(t_end, rel=1e-14) and times[0] < t_end / 4
-    assert s["fields"]["last_step"] == s["steps"] and s["fields"]["times"] == len(times)
+    assert s["consolidation"]["fields"]["last_step"] == s["steps"] and s["consolidation"]["fields"][
+        "times"
+    ] == len(times)
     assert (f"the last at t = {t_end:.6g} s (step {s['steps']} of {s['steps']})"
             in res.stdout)
 
@@ -256,7 +267,7 @@ def test_signal_in_the_eigen_analysis(cli, tmp_path, monkeypatch):
                           f"summary {tmp_path / 'summary.json'}\n")
     s = res.summary
     assert s["analysis"] == "eigen" and s["completed"] is False
-    assert s["error"]["kind"] == "interrupted" and s["ndof"] > 0
+    assert s["error"]["kind"] == "interrupted" and s["eigen"]["ndof"] > 0
 
 
 def test_ctrl_c_in_the_stability_analysis_of_m3(tmp_path):

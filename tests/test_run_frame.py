@@ -180,5 +180,10 @@ def test_failing_in_the_reporting(cli, tmp_path, monkeypatch, scene):
     if scene in STEPPING:
         assert (tmp_path / "checkpoint.npz").is_file() and s["steps"] > 10
         assert s["files"]["checkpoint"] == str(tmp_path / "checkpoint.npz")
+        monkeypatch.undo()
+        again = cli(["-mpm_restart", tmp_path / "checkpoint.npz"], out_dir=tmp_path)
+        assert again.returncode == 0, again.stderr
+        _head(again.summary, completed=True)
+        assert again.summary["steps"] == s["steps"] and again.summary["wall"]["stepping_s"] < 1
     else:
-        assert s["frequencies_hz"]["jacobi"] and s["steps"] is None
+        assert s["eigen"]["frequencies_hz"]["jacobi"] and s["steps"] is None

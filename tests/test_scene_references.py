@@ -68,17 +68,25 @@ def test_each_scene_within_one_percent_of_its_own_reference(cli, tmp_path, args,
     o = s["provenance"]["options"]["mpm"]
     for Tv, (y0, pq) in _profiles(tmp_path).items():
         assert np.max(np.abs(pq - _scene_reference(o, drained, Tv, y0))) < 0.01, Tv
-    mon = s["monitor"]
+    mon = s["consolidation"]["monitor"]
     want = [float(_scene_reference(o, drained, Tv, mon["height"])) for Tv in REPORTS]
     assert mon["consistent"] == pytest.approx(want, rel=1e-9, abs=1e-12)
-    assert s["reference"]["available"] and s["reference"]["drained"] == list(drained)
+    assert s["consolidation"]["reference"]["available"] and s["consolidation"]["reference"][
+        "drained"
+    ] == list(drained)
     # U: finite, within 2 % of the reference's, which is not the one-way Terzaghi U.
-    deg = s["consolidation_degree"]
+    deg = s["consolidation"]["consolidation_degree"]
     assert all(math.isfinite(u) for u in deg["U_settlement"] + deg["U_pressure"])
     assert max(abs(e) for e in deg["error_settlement_consistent_pct"]) < 2.0
     if drained == ("top", "bottom"):    # one-way either way has Terzaghi's U (mirrored)
         assert deg["consistent"][0] != pytest.approx(
-            float(analytic.degree_of_consolidation(0.05 * s["c2"] / s["c_v"])), rel=1e-3)
+            float(
+                analytic.degree_of_consolidation(
+                    0.05 * s["consolidation"]["c2"] / s["consolidation"]["c_v"]
+                )
+            ),
+            rel=1e-3,
+        )
 
 
 def test_lateral_drainage_has_no_reference_and_says_so(cli, tmp_path):
@@ -99,11 +107,14 @@ def test_lateral_drainage_has_no_reference_and_says_so(cli, tmp_path):
     assert lines[table + 1].split() == ["T_v", "p/q"] and len(lines[table + 2].split()) == 2
     assert "Terzaghi" not in res.stdout
     assert "Degree of consolidation: none (drained through a side" in res.stdout
-    assert set(s["monitor"]) == {"x", "height", "Tv", "p_over_q"} and "profile_l2" not in s
-    assert s["fe_reference"] == {"available": False,
+    assert (
+        set(s["consolidation"]["monitor"]) == {"x", "height", "Tv", "p_over_q"}
+        and "profile_l2" not in s["consolidation"]
+    )
+    assert s["consolidation"]["fe_reference"] == {"available": False,
                                  "why": "turned off (-mpm_fe_reference 0)"}
-    assert s["reference"]["available"] is False
-    assert "U_settlement" not in s["consolidation_degree"]
+    assert s["consolidation"]["reference"]["available"] is False
+    assert "U_settlement" not in s["consolidation"]["consolidation_degree"]
     def no_nan(word):
         raise AssertionError(f"{word} in summary.json")
     json.loads((tmp_path / "summary.json").read_text(), parse_constant=no_nan)
@@ -149,9 +160,12 @@ def test_geostatic_start_drives_the_excess_of_the_load_alone(cli, tmp_path):
         assert np.array_equal(a[Tv][0], b[Tv][0])
         assert np.max(np.abs(a[Tv][1] - b[Tv][1])) < 1e-3, Tv
     for key in ("U_settlement", "U_pressure"):
-        assert np.allclose(plain["consolidation_degree"][key],
-                           geo["consolidation_degree"][key], rtol=0, atol=1e-3)
-    assert geo["monitor"]["consistent"] == plain["monitor"]["consistent"]
+        assert np.allclose(plain["consolidation"]["consolidation_degree"][key],
+                           geo["consolidation"]["consolidation_degree"][key], rtol=0, atol=1e-3)
+    assert (
+        geo["consolidation"]["monitor"]["consistent"]
+        == plain["consolidation"]["monitor"]["consistent"]
+    )
     o = geo["provenance"]["options"]["mpm"]
     rows = np.loadtxt(tmp_path / "b" / "profiles.csv", delimiter=",", skiprows=1)
     hydro = o["rho_l"] * G * (o["size"][1] - rows[:, 3]) / o["load"]
@@ -209,12 +223,12 @@ def test_strip_footing_settles_to_its_static_final_settlement(cli, tmp_path):
     s = check_ok(res)
     assert res.stdout.count("No analytic reference for this scene: a load over part of the "
                             "top (-mpm_load_extent 0,0.5)") == 1
-    assert "Terzaghi" not in res.stdout and s["reference"]["available"] is False
-    fe = s["fe_reference"]
+    assert "Terzaghi" not in res.stdout and s["consolidation"]["reference"]["available"] is False
+    fe = s["consolidation"]["fe_reference"]
     assert abs(fe["error_settlement_axis_pct"][0]) < 4.0, fe
     assert abs(fe["error_settlement_axis_pct"][-1]) < 1.0, fe
     assert abs(fe["error_settlement_mean_pct"][-1]) < 2.0 and abs(fe["error_p_pct_of_q"][-1]) < 0.5
-    ends = s["static_references"]
+    ends = s["consolidation"]["static_references"]
     assert abs(ends["error_final_pct"]) < 2.0
     assert ends["settlement_first_m"] < ends["settlement_last_m"]
     rows = np.loadtxt(s["files"]["settlement_trough_csv"], delimiter=",", skiprows=1)
@@ -233,7 +247,7 @@ def test_strip_footing_on_clay_starts_at_its_static_undrained_settlement(cli, tm
                       "-mpm_Tv_end", "1e-6", "-mpm_Tv_report", "5e-7,1e-6", "-mpm_progress",
                       "0", "-mpm_figures", "0", "-mpm_fe_reference", "0"],
                      options_file="consolidation-strip", out_dir=tmp_path))
-    ends = s["static_references"]
+    ends = s["consolidation"]["static_references"]
     assert abs(ends["settlement_last_m"] / ends["undrained_m"] - 1) < 0.02
 
 
@@ -261,18 +275,25 @@ def test_new_scenes_agree_on_one_and_two_ranks(cli, tmp_path, args):
     runs = [check_ok(cli(args + short, ranks=n, options_file="consolidation-m1-q4",
                          out_dir=tmp_path / str(n), process=True)) for n in (1, 2)]
     assert runs[1]["provenance"]["ranks"] == 2
-    assert np.allclose(runs[0]["monitor"]["p_over_q"], runs[1]["monitor"]["p_over_q"],
-                       rtol=0, atol=1e-10)
+    assert np.allclose(
+        runs[0]["consolidation"]["monitor"]["p_over_q"],
+        runs[1]["consolidation"]["monitor"]["p_over_q"],
+        rtol=0,
+        atol=1e-10,
+    )
     one, two = (np.loadtxt(tmp_path / str(n) / "profiles.csv", delimiter=",", skiprows=1)
                 for n in (1, 2))
     order = [np.lexsort((r[:, 2], r[:, 3], r[:, 0])) for r in (one, two)]
     assert np.allclose(one[order[0]], two[order[1]], rtol=0, atol=1e-10)
     if "static_references" in runs[0]:
         for key in ("undrained_m", "final_m", "settlement_last_m"):
-            assert runs[1]["static_references"][key] == pytest.approx(
-                runs[0]["static_references"][key], rel=1e-10)
+            assert runs[1]["consolidation"]["static_references"][key] == pytest.approx(
+                runs[0]["consolidation"]["static_references"][key], rel=1e-10)
     if "fe_reference" in runs[0]:       # solved on rank 0, the run's side on every rank
-        one, two = runs[0]["fe_reference"], runs[1]["fe_reference"]
+        one, two = (
+            runs[0]["consolidation"]["fe_reference"],
+            runs[1]["consolidation"]["fe_reference"],
+        )
         assert one["available"] and one["monitor_m"] == two["monitor_m"]
         for key in ("fe_p_over_q", "fe_settlement_axis_m", "settlement_axis_m",
                     "settlement_mean_m", "error_profile_max_pct_of_q"):
@@ -291,13 +312,13 @@ def test_laterally_drained_block_ends_are_its_static_ones(cli, tmp_path):
     clay = check_ok(cli(block + ["-mpm_k", "1e-9", "-mpm_mass_scaling", "none", "-mpm_Tv_end",
                                  "1e-6", "-mpm_Tv_report", "1e-6", "-mpm_fe_reference", "0"],
                         out_dir=tmp_path / "a"))
-    ends = clay["static_references"]
+    ends = clay["consolidation"]["static_references"]
     assert abs(ends["settlement_last_m"] / ends["undrained_m"] - 1) < 0.02
     long = check_ok(cli(block + ["-mpm_k", "2e-4", "-mpm_drag", "implicit",
                                  "-mpm_mass_scaling", "auto", "-mpm_Tv_end", "2",
                                  "-mpm_Tv_report", "0.05,2", "-mpm_fe_cells", "16,16"],
                         out_dir=tmp_path / "b"))
-    assert abs(long["static_references"]["error_final_pct"]) < 2.0
+    assert abs(long["consolidation"]["static_references"]["error_final_pct"]) < 2.0
     # Its FE reference (the axis: the middle x = 0.6 m): within 1 % at T_v = 2.
-    fe = long["fe_reference"]
+    fe = long["consolidation"]["fe_reference"]
     assert fe["axis_x_m"] == 0.6 and abs(fe["error_settlement_axis_pct"][-1]) < 1.0, fe

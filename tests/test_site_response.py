@@ -1,5 +1,5 @@
-"""The site-response references of the dynamic analysis (solver/references/site.py) against closed forms
-written here, and the base motions (solver/model/motion.py, solver/io/records.py)."""
+"""The site-response references of the dynamic analysis (solver/references/site.py) against
+closed forms written here, and the base motions (solver/model/motion.py, solver/io/records.py)."""
 
 from __future__ import annotations
 

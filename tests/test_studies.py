@@ -68,22 +68,29 @@ def test_target_error_picks_the_cheapest_and_meets_it(cli):
     res = cli(["-mpm_target_error", repr(target), "-mpm_progress", "0", "-mpm_figures", "0"],
               options_file="consolidation-m2-q4", timeout=600)
     s = check_ok(res)
-    assert s["element"] == want["element"] and s["cells"] == want["cells"]
-    assert s["ppc"] == want["ppc"]
-    assert s["target"]["picked"]["dt_safety"] == want["dt_safety"]
+    assert (
+        s["consolidation"]["element"] == want["element"]
+        and s["consolidation"]["cells"] == want["cells"]
+    )
+    assert s["consolidation"]["ppc"] == want["ppc"]
+    assert s["consolidation"]["target"]["picked"]["dt_safety"] == want["dt_safety"]
     overrides = next(line for line in res.stdout.splitlines() if "this overrides" in line)
     assert "picked" in res.stdout and "-mpm_cells 2,20" in overrides
     # Met when run: every error the run reports, against the compressible-water reference.
     largest = _largest_error(s)
-    assert largest <= target and s["target"]["met"] is True
-    assert s["target"]["achieved_pct"] == pytest.approx(largest, rel=1e-12)
+    assert largest <= target and s["consolidation"]["target"]["met"] is True
+    assert s["consolidation"]["target"]["achieved_pct"] == pytest.approx(largest, rel=1e-12)
     assert f"Target error {target:g} %: met: largest error {largest:.2f} %" in res.stdout
 
 
 def _largest_error(s):
     """The largest error (%) of all a run reports at its report times, against the
     compressible-water references: p at the monitor, the profile's L2 (% of q), both U."""
-    mon, l2, deg = s["monitor"], s["profile_l2"], s["consolidation_degree"]
+    mon, l2, deg = (
+        s["consolidation"]["monitor"],
+        s["consolidation"]["profile_l2"],
+        s["consolidation"]["consolidation_degree"],
+    )
     return max([abs(e) for e in mon["error_consistent_pct"]]
                + [100 * e for e in l2["consistent"]]
                + [abs(e) for e in deg["error_settlement_consistent_pct"]]
@@ -105,17 +112,22 @@ def test_target_error_says_met_only_when_measured_met(cli, tmp_path):
                "-mpm_progress", "0", "-mpm_figures", "0"],
               options_file="consolidation-m1-q4", timeout=600)
     s = check_ok(res)
-    assert s["ppc"] == 1 and s["cells"] == [1, 10]
+    assert s["consolidation"]["ppc"] == 1 and s["consolidation"]["cells"] == [1, 10]
     largest = _largest_error(s)
-    worst_us = max(abs(e) for e in s["consolidation_degree"]["error_settlement_consistent_pct"])
+    worst_us = max(
+        abs(e)
+        for e in s["consolidation"]["consolidation_degree"]["error_settlement_consistent_pct"]
+    )
     assert largest == worst_us > 10                # U from the settlement is the worst
-    assert s["target"]["met"] is False
-    assert s["target"]["errors_pct"]["U_s"]["error_pct"] == pytest.approx(worst_us, rel=1e-12)
+    assert s["consolidation"]["target"]["met"] is False
+    assert s["consolidation"]["target"]["errors_pct"]["U_s"]["error_pct"] == pytest.approx(
+        worst_us, rel=1e-12
+    )
     assert (f"Target error 1 %: NOT met: largest error {largest:.2f} % (U_s at T_v = 0.02)"
             in res.stdout)
     # The time predicted from the run's own steps, not from the data's wall time.
     assert "us per step on this machine" in res.stdout
-    assert s["target"]["predicted_seconds"] > 0 and "rank(s))" not in res.stdout
+    assert s["consolidation"]["target"]["predicted_seconds"] > 0 and "rank(s))" not in res.stdout
 
 
 def test_pace_predicts_from_the_measured_steps():
@@ -166,21 +178,25 @@ def test_target_error_rejects_a_file_that_is_not_data(cli, tmp_path):
 def test_without_stability_analysis_the_drag_limit_governs_m1(cli):
     s = check_ok(cli(["-mpm_stability_analysis", "0"] + SHORT,
                      options_file="consolidation-m1-q4"))
-    lim = s["dt_critical"]
-    assert "discrete" not in lim and s["dt_governing"] == "drag"
+    lim = s["consolidation"]["dt_critical"]
+    assert "discrete" not in lim and s["consolidation"]["dt_governing"] == "drag"
     lam = 0.3 * 9.81 / 2.5e-4 * (1 + 0.3 * 1000 / (0.7 * 2700))
     assert lim["drag"] == pytest.approx(2 / lam, rel=1e-12)
-    assert s["dt"] == pytest.approx(math.floor(0.5 * 2 / lam * 1e7) / 1e7, rel=1e-12)
+    assert s["consolidation"]["dt"] == pytest.approx(
+        math.floor(0.5 * 2 / lam * 1e7) / 1e7, rel=1e-12
+    )
 
 
 def test_profiles_csv_holds_every_point_and_the_monitor_value(cli, tmp_path):
     s = check_ok(cli(SHORT, options_file="consolidation-m1-q4"))
     prof = np.loadtxt(tmp_path / "out" / "profiles.csv", delimiter=",", skiprows=1, ndmin=2)
     at = prof[np.isclose(prof[:, 0], 0.02)]
-    assert len(at) == s["n_points"] == 40
+    assert len(at) == s["consolidation"]["n_points"] == 40
     assert at[:, 5].sum() == pytest.approx(0.1 * 1.0, rel=1e-12)      # volumes fill the body
-    mon = at[np.isclose(at[:, 3], s["monitor"]["height"])]
-    assert mon[:, 4].mean() == pytest.approx(s["monitor"]["p_over_q"][0], rel=1e-12)
+    mon = at[np.isclose(at[:, 3], s["consolidation"]["monitor"]["height"])]
+    assert mon[:, 4].mean() == pytest.approx(
+        s["consolidation"]["monitor"]["p_over_q"][0], rel=1e-12
+    )
 
 
 def test_batch_runner_reuses_identical_runs_only(tmp_path):
@@ -320,8 +336,8 @@ def test_one_point_per_q4_cell_runs_at_the_drag_limit(cli):
     blocks, which must not pass for an instability; the run is stable at 0.99 x the
     discrete limit, which the drag sets as for 2 x 2 points."""
     s = check_ok(cli(["-mpm_ppc", "1"] + SHORT, options_file="consolidation-m1-q4"))
-    lim = s["dt_critical"]
-    assert "oscillator" not in lim and s["f1_hz"] is None
+    lim = s["consolidation"]["dt_critical"]
+    assert "oscillator" not in lim and s["consolidation"]["f1_hz"] is None
     assert lim["discrete"] == pytest.approx(lim["drag"], rel=0.01)
     res = cli(["-mpm_ppc", "1", "-mpm_damping", "0", "-mpm_stability_analysis", "0",
                "-mpm_dt", repr(0.99 * lim["discrete"])] + SHORT,

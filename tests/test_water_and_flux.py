@@ -32,7 +32,7 @@ JUMP = ["-mpm_analysis", "consolidation", "-mpm_size", "0.1,2", "-mpm_layers", "
 def _worst_against_column(summary, out_dir, times=(0.05, 0.2, 0.5)):
     """max |p/q - reference| over every point at each of ``times`` (T_v), the reference the
     layered column of the summary's layers (compressible water)."""
-    lay = summary["layers"]
+    lay = summary["consolidation"]["layers"]
     col = layered.LayeredColumn(
         [s["thickness_m"] for s in lay], [constrained_modulus(s["E"], s["nu"]) for s in lay],
         [s["k"] for s in lay], [s["porosity"] for s in lay], lay[0]["rho_l"] * G_REF,
@@ -51,7 +51,7 @@ def test_porosity_jump_keeps_its_water_q4(cli, tmp_path):
     0.2, 0.5 (measured 0.16 / 0.05 / 0.04 %; with n div w of one nodal w shared by both
     layers it was 8.1 / 4.3 / 3.0 %, and did not converge)."""
     s = check_ok(cli(JUMP + ["-mpm_cells", "1,40"], out_dir=tmp_path / "q4", timeout=300))
-    assert [lay["porosity"] for lay in s["layers"]] == [0.3, 0.5]
+    assert [lay["porosity"] for lay in s["consolidation"]["layers"]] == [0.3, 0.5]
     assert max(_worst_against_column(s, tmp_path / "q4")) < 0.005
 
 
@@ -98,7 +98,7 @@ def test_drained_base_under_gravity_keeps_the_water_table(cli, tmp_path):
                       "0.05,0.2,0.5,2", "-mpm_progress", "0", "-mpm_figures", "0"],
                      options_file="consolidation-geostatic", out_dir=tmp_path))
     o = s["provenance"]["options"]["mpm"]
-    assert s["reference"]["drained"] == ["top", "bottom"]
+    assert s["consolidation"]["reference"]["drained"] == ["top", "bottom"]
     H, n, q = o["size"][1], o["porosity"], o["load"]
     E_c = constrained_modulus(o["E"], o["nu"])
     B = (o["K_l"] / n) / (o["K_l"] / n + E_c)
@@ -112,7 +112,7 @@ def test_drained_base_under_gravity_keeps_the_water_table(cli, tmp_path):
         r = rows[np.isclose(rows[:, 0], Tv)]
         ref = analytic.column_pressure(r[:, 3], Tv * ratio, H, ("top", "bottom"), B, B)
         assert np.abs(r[:, col] - ref).max() < 0.01, Tv
-    final = s["consolidation_degree"]["settlement_m"][-1]
+    final = s["consolidation"]["consolidation_degree"]["settlement_m"][-1]
     assert final == pytest.approx(q * H / E_c, rel=5e-3)
 
 

@@ -15,7 +15,8 @@ from . import reporting, settlement, workprecision
 
 
 def keys(plan, points, state) -> dict:
-    """The run's keys in the summary before the first step."""
+    """The run's keys in its block of the summary (``consolidation``) before the first
+    step."""
     body, scheme, limits, refs = plan.body, plan.scheme, plan.limits, plan.refs
     out = {"scheme": plan.method, "element": body.element, "cells": list(body.cells),
            "ppc": body.ppc, "n_points": points.n_global, "dt": state.dt,
@@ -70,7 +71,7 @@ def finish(plan, model, record, comm) -> None:
         summary["static_references"] = settlement.print_ends(
             comm, state.degree, plan.refs.static, reports.surface.extent)
     if plan.goal is not None:
-        _target_verdict(plan, record.summary(True), model.pace, comm)
+        _target_verdict(plan, summary, model.pace, comm)
     last = reports.series.last()          # rank 0's: it writes the series
     if last is not None:
         summary["fields"] = {"times": len(reports.series.entries), "last_step": last[0],
@@ -100,9 +101,10 @@ def _implicit_line(comm, counts):
 
 
 def _target_verdict(plan, summary, pace, comm):
-    """-mpm_target_error's check of the finished run (its ``summary`` so far): met only when
-    every error it reports is within the target; with the stepping time beside the
-    prediction (rank 0's). Written into the plan's goal, the summary's ``target``."""
+    """-mpm_target_error's check of the finished run (``summary``: its block of the summary
+    so far): met only when every error it reports is within the target; with the stepping
+    time beside the prediction (rank 0's). Written into the plan's goal, the block's
+    ``target``."""
     goal, target = plan.goal, plan.target_error
     goal["achieved_pct"] = workprecision.measure(summary)
     goal["errors_pct"] = {k: {"error_pct": e, "Tv": tv}

@@ -48,8 +48,9 @@ def scene_signature(p) -> dict:
 
 
 def errors(summary) -> dict:
-    """{quantity: (largest |error| (%), its T_v)} of a finished run's summary over its report
-    times, for each quantity of JUDGED that it reports (U is none without a surface load)."""
+    """{quantity: (largest |error| (%), its T_v)} of a finished run's ``summary`` (its
+    ``consolidation`` block) over its report times, for each quantity of JUDGED that it
+    reports (U is none without a surface load)."""
     out = {}
     for name, (entry, key, scale) in JUDGED.items():
         table = summary.get(entry) or {}
@@ -61,7 +62,8 @@ def errors(summary) -> dict:
 
 
 def measure(summary) -> float:
-    """The error measure (%) of a finished run's summary (NaN when it reported nothing)."""
+    """The error measure (%) of a finished run's ``summary`` (its ``consolidation`` block;
+    NaN when it reported nothing)."""
     return max((e for e, _ in errors(summary).values()), default=math.nan)
 
 

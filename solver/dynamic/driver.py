@@ -92,7 +92,7 @@ class Shaken:
         self.first = 1
         if ckpt is not None:
             done = ckpt.state["step"]
-            if done >= self.nsteps:
+            if done > self.nsteps:
                 raise InputError(f"-mpm_t_end {plan.t_end:g}: before the state of "
                                  f"-mpm_restart {plan.restart} (t = {done * self.dt:.6g} s)")
             engine.restore(ckpt)

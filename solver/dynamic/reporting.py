@@ -56,7 +56,7 @@ def progress_words(rec, t: float) -> str:
 
 
 def keys(plan, model) -> dict:
-    """The run's keys in the summary before the first step."""
+    """The run's keys in its block of the summary before the first step."""
     out = {"phases": plan.phases, "dt": model.dt, "t_end": plan.t_end}
     if not model.water:       # the bound the step comes from (a divisor of -mpm_record_dt)
         out.update(w_max=model.body.w_max, dt_stable=model.body.dt_stable)
@@ -131,8 +131,8 @@ def exact_column(plan):
 
 
 def finish(plan, model, rec, series, record, comm) -> None:
-    """The outputs after the last step (rank 0 writes), the summary's ``dynamic`` block in
-    ``record`` and the closing lines."""
+    """The outputs after the last step (rank 0 writes), the results into the summary's
+    ``dynamic`` block (``record.results``) and the closing lines."""
     folder = plan.outputs.folder
     t = np.array(rec.t)
     block = {"record_depths_m": rec.depths.tolist(), "eigen_hz": plan.eigen_hz.tolist(),
@@ -163,7 +163,7 @@ def finish(plan, model, rec, series, record, comm) -> None:
     if model.water:
         block.update(model.references(rec))
     _print_results(block, comm)
-    record.results["dynamic"] = block
+    record.results.update(block)
     files = record.files
     if comm.getRank() == 0:
         files["histories"] = os.path.join(folder, "histories.csv")

@@ -15,9 +15,10 @@ The head of every summary:
   stops a run before it writes anything),
   ``exit_code``, ``message``, ``stage`` (the phase and what it was doing) and ``step`` (the
   last step done, where there is one);
-- ``files``: what the run wrote, the summary itself among them.
-
-Each analysis adds its own keys after the head (its block). :func:`guarded` runs an analysis
+- ``files``: what the run wrote, the summary itself among them;
+- the analysis's own block, named for it (``eigen``, ``consolidation``, ``dynamic``): its
+  set-up and results.
+ :func:`guarded` runs an analysis
 and, whatever stops it, writes the summary once with what the run holds by then, and a
 checkpoint where the run's state was whole after its last step.
 """
@@ -40,7 +41,7 @@ MIDDLE = {"eigen": "solving"}
 class Record:
     """The record of one run of ``analysis`` on ``comm`` (see the module's docstring).
 
-    ``results`` holds the analysis's own keys, ``files`` what it wrote; the loop sets
+    ``results`` holds the analysis's block, ``files`` what it wrote; the loop sets
     ``steps`` and ``whole`` (the last step whose state and records agree, None mid-step) and
     ``save`` (``save(step)`` writes a checkpoint, collective) with ``checkpoint`` its path."""
 
@@ -86,11 +87,11 @@ class Record:
         """The summary as it stands: the head, the analysis's keys, the error, the files."""
         head = {"analysis": self.analysis, "run_id": self.run_id, "completed": completed,
                 "steps": self.steps, "wall": self.wall(), "provenance": self.provenance}
-        out = dict(head, **self.results)
         if error is not None:
-            out["error"] = error
-        out["files"] = {"summary": self.path, **self.files}
-        return out
+            head["error"] = error
+        head["files"] = {"summary": self.path, **self.files}
+        head[self.analysis] = self.results
+        return head
 
     def write(self, completed: bool = True, error: dict | None = None) -> str:
         """Write the summary (rank 0; atomic); what the error line says of it."""

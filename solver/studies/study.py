@@ -133,6 +133,17 @@ def wall_seconds(summary: dict) -> float:
     return summary["wall_seconds"] if total is None else total
 
 
+def results(summary: dict) -> dict:
+    """A run's summary as a study reads it: one flat dict of the record's head (``steps``,
+    ``wall``, ``completed``, ...) and the keys of its analysis's block
+    (``summary[summary["analysis"]]``: ``monitor``, ``frequencies_hz``, ...). A summary of
+    before the blocks is already flat."""
+    block = summary.get(summary.get("analysis"))
+    if not isinstance(block, dict):
+        return summary
+    return {**{k: v for k, v in summary.items() if k != summary["analysis"]}, **block}
+
+
 def _done(run: Run):
     """The stored (summary, exit code, seconds) of an identical earlier run that is
     :func:`reusable`, or None."""
@@ -149,12 +160,13 @@ def _done(run: Run):
         return None
     if not reusable(summary):
         return None
-    return summary, args.get("code"), args.get("seconds", 0.0)
+    return results(summary), args.get("code"), args.get("seconds", 0.0)
 
 
 def execute(run: Run, log=print, fresh=False) -> Run:
     """Run one job (or reuse its stored result, unless ``fresh``) and load its summary into
-    ``run.result`` (None when the run wrote none)."""
+    ``run.result`` (:func:`results`: head and block in one dict; None when the run wrote
+    none)."""
     cached = None if fresh else _done(run)
     if cached:
         run.result, run.code, run.seconds = cached
@@ -172,7 +184,7 @@ def execute(run: Run, log=print, fresh=False) -> Run:
     run.code, run.stderr = proc.returncode, proc.stderr.strip()
     try:
         with open(run.summary_path) as fh:
-            run.result = json.load(fh)
+            run.result = results(json.load(fh))
     except (OSError, ValueError):
         run.result = None
     with open(os.path.join(run.folder, "stdout.txt"), "w") as fh:
