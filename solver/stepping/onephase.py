@@ -7,8 +7,15 @@ K (``scene.build``: the same points, the same integration) and its mass lumped b
 scaling (HRZ, positive for every cell), with Rayleigh damping C = a0 M + a1 K and a sudden
 surface load f:
 
-    m (v' - v) / dt = f - K u - a0 m v - a1 K (v' + v) / 2 [- m a_b(t)] [+ dashpot],
+    m (v' - v) / dt = f - K u - a0 m (v - v_base) - a1 K (v' + v) / 2 [- m a_b(t)] [+ dashpot],
     u' = u + dt v'      (central differences, v at half steps)
+
+Damping acts on the deformation only: K and the mass part both vanish for a rigid-body
+translation, the mass part taken on the velocity relative to the base row's mass-weighted
+mean v_base (along the shaking; 0 on a rigid base, whose frame is the base's). On a compliant
+base the frame is absolute: on v itself the mass part would drag the column against it at
+long periods (the transfer function rho_r V_r / (rho_r V_r + a0 M) below 1, M the column's
+mass per area).
 
 The stiffness-proportional damping is Crank-Nicolson (one LU of m + dt a1 K / 2, made once):
 taken explicitly it damps the grid's fastest mode at xi = a1 w_max / 2 and its stability
@@ -132,6 +139,14 @@ class ShakenBody:
             K.destroy()
         self.m, self.c, self.f = (self._reduce(a) for a in (m, c, f))
         self.along = self._reduce(self.along_full.astype(float)) > 0
+        # The base row's DOFs along the shaking (reduced: the kept ones) and their masses'
+        # shares of the row's: the mass-proportional damping acts on the velocity relative
+        # to theirs (:meth:`step`), a0 m on the DOFs along the shaking.
+        self.mpi = self.K.getComm().tompi4py()
+        self.base_dofs = np.flatnonzero((self.along_full & (self.row == 0))[self.kept])
+        m_base = self.mpi.allreduce(float(np.sum(self.m[self.base_dofs])))
+        self.base_share = self.m[self.base_dofs] / m_base if m_base > 0 else None
+        self.a0_m_along = shaking.a0 * self.m * self.along
         self.dt = self.dt_stable = self._stable_step()
         self.solver = None
         self.u = self.v = None
@@ -216,6 +231,12 @@ class ShakenBody:
         if sh.base == "rigid":
             fa[self.along] -= m[self.along] * acceleration(t)
         fa += c * velocity(t + dt / 2)
+        if sh.base == "compliant" and sh.a0:
+            # Damping on the deformation only: the mass part on the velocity relative to the
+            # base row's (mass-weighted mean), which a rigid-body translation shares, so the
+            # column is not dragged against the fixed frame at long periods. On a fixed base
+            # that velocity is 0 (the rigid case: no base DOFs), the modes' ratios as before.
+            fa += self.a0_m_along * self.base_velocity(va)
         old = va.copy()
         if self.solver is None:
             # The dashpot (c) implicit, the rest explicit: v' = (m v + dt f) / (m + dt c).
@@ -228,6 +249,14 @@ class ShakenBody:
             va = self.v.getArray()
         ua += dt * va
         return (va - old) / dt
+
+    def base_velocity(self, va: np.ndarray) -> float:
+        """The mass-weighted mean velocity (m/s) along the shaking of the base row's nodes
+        in ``va`` (this rank's reduced values), over all ranks: one allreduce (the base row
+        may live on one rank)."""
+        mine = float(self.base_share @ va[self.base_dofs])
+        # Skipped on one rank: a pickled allreduce would add about a tenth to the step.
+        return self.mpi.allreduce(mine) if self.mpi.Get_size() > 1 else mine
 
     def state(self) -> tuple:
         """(u, v): this rank's reduced values (m, m/s), copies."""
