@@ -68,7 +68,6 @@ class Record:
         its provenance (collective: rank 0 asks git and the libraries) with ``options``
         (:func:`provenance.options`)."""
         self.path, self.folder, self.run_id = outputs.summary, outputs.folder, run_id
-        self.files = {"summary": self.path, **self.files}
         self.provenance = provenance.collect(self.comm, options)
 
     def enter(self, phase: str) -> None:
@@ -84,7 +83,8 @@ class Record:
         return {f"{name.replace('-', '')}_s": s for name, s in seconds.items()}
 
     def summary(self, completed: bool, error: dict | None = None) -> dict:
-        """The summary as it stands: the head, the analysis's keys, the error, the files."""
+        """The summary as it stands: the head (with the error and the files), then the
+        analysis's block."""
         head = {"analysis": self.analysis, "run_id": self.run_id, "completed": completed,
                 "steps": self.steps, "wall": self.wall(), "provenance": self.provenance}
         if error is not None:
