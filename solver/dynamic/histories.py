@@ -84,6 +84,72 @@ class Recorder:
             setattr(self, name, np.array(d[name], dtype=float))
 
 
+class StepSpectra:
+    """The pseudo-spectral accelerations (PERIODS, 5 %) of the surface and of the input
+    from every step, not from the records: at the default -mpm_record_dt (0.005 s) an
+    oscillator of 0.01 s sees two samples a period, and what the surface does between the
+    samples is lost (the samples' PSA was 0.92 % off on the uniform layer under a Ricker,
+    4.4 % on the 30 m deposit's record; docs/method.md). The engine gives each step's
+    surface acceleration in the shaking direction, this rank's share of the row mean
+    (:meth:`keep`); the oscillators (:class:`spectra.Oscillators`) take the steps up in
+    pieces of at most CHUNK steps, at a checkpoint and at the end (collective), so that
+    memory stays CHUNK floats and a checkpoint stores their state (five numbers a period),
+    not the history.
+
+    The value of the step from t (s) is of t + ``lag`` (the engine's samples'); the
+    motion's acceleration at t is added to it where the engine steps in the frame of the
+    base (``frame``), and the input is the motion's acceleration at t + lag."""
+
+    CHUNK = 1 << 16
+
+    def __init__(self, motion, dt: float, lag: float = 0.0, frame: bool = False):
+        self.motion, self.dt, self.lag, self.frame = motion, dt, lag, frame
+        self.values = np.zeros(self.CHUNK)
+        self.fed = self.done = 0          # steps the oscillators have, steps kept
+        self.surface = spectra.Oscillators(PERIODS, dt)
+        self.input = spectra.Oscillators(PERIODS, dt)
+        self.lost = False                 # restarted from a checkpoint without them
+
+    def keep(self, t: float, value: float, mpi) -> None:
+        """The step from t (s): ``value`` (m/s2) this rank's share of its surface mean (the
+        ranks' shares sum to it). Collective every CHUNK steps."""
+        j = int(round(t / self.dt))
+        if j - self.fed >= self.CHUNK:
+            self._take_up(mpi)
+        self.values[j - self.fed] = value
+        self.done = j + 1
+
+    def _take_up(self, mpi) -> None:
+        new = mpi.allreduce(self.values[:self.done - self.fed])
+        t = np.arange(self.fed, self.done) * self.dt
+        if self.frame:
+            new = new + self.motion.acceleration(t)
+        self.surface.feed(new)
+        self.input.feed(self.motion.acceleration(t + self.lag))
+        self.fed = self.done
+
+    def psa(self, mpi):
+        """(input, surface) PSA (m/s2) over PERIODS of every step kept (collective), or None
+        after a restart from a checkpoint that had not kept them."""
+        self._take_up(mpi)
+        return None if self.lost else (self.input.psa, self.surface.psa)
+
+    def state(self, mpi) -> dict:
+        """What a checkpoint keeps of them (collective)."""
+        self._take_up(mpi)
+        return {"psa": {"steps": self.fed, "surface": self.surface.state(),
+                        "input": self.input.state(), "lost": self.lost}}
+
+    def restore(self, state: dict, steps: int) -> None:
+        """Go on after ``steps`` steps from a checkpoint's ``state``."""
+        self.fed = self.done = steps
+        d = state.get("psa")
+        self.lost = d is None or d["lost"] or d["steps"] != steps
+        if not self.lost:
+            self.surface.restore(d["surface"])
+            self.input.restore(d["input"])
+
+
 def write_histories(path, rec: Recorder, water: bool) -> None:
     """histories.csv: one row per time and recorded depth (long format)."""
     cols = COLUMNS if water else COLUMNS[:-1]
@@ -109,10 +175,12 @@ def write_peaks(path, rec: Recorder, H: float, water: bool) -> None:
     output.write_text(path, "\n".join(lines) + "\n")
 
 
-def spectral(rec: Recorder, a_in: np.ndarray) -> dict:
+def spectral(rec: Recorder, a_in: np.ndarray, psa=None) -> dict:
     """The spectra of the surface against the input ``a_in`` (m/s2, at the sample times):
     Fourier amplitudes, the transfer function (raw and Konno-Ohmachi smoothed) up to
-    F_MAX where the input has energy, its first three peaks, and 5 %-damped PSA."""
+    F_MAX where the input has energy, its first three peaks, and 5 %-damped PSA: ``psa``
+    (input, surface) where given (:meth:`StepSpectra.psa`, from every step), else from the
+    samples."""
     dt = rec.t[1] - rec.t[0]
     surface = rec.history(COLUMNS[3 * rec.comp])
     n = 1 << max(1, math.ceil(math.log2(4 * len(surface))))
@@ -121,12 +189,15 @@ def spectral(rec: Recorder, a_in: np.ndarray) -> dict:
     band = (f > 0) & (f <= F_MAX) & (A_in > 1e-3 * np.max(A_in))
     f, A_in, A_top = f[band], A_in[band], A_top[band]
     ratio = A_top / A_in
-    smooth = spectra.konno_ohmachi(f, A_top) / spectra.konno_ohmachi(f, A_in)
+    s_in, s_top = spectra.konno_ohmachi(f, np.stack([A_in, A_top]))
+    smooth = s_top / s_in
     strong = A_in > PEAK_BAND * np.max(A_in)
+    if psa is None:
+        psa = (spectra.pseudo_acceleration(a_in, dt, PERIODS),
+               spectra.pseudo_acceleration(surface, dt, PERIODS))
     return {"f": f, "input": A_in, "surface": A_top, "transfer": ratio, "smoothed": smooth,
             "peaks": resonances(f[strong], ratio[strong], smooth[strong]),
-            "psa_input": spectra.pseudo_acceleration(a_in, dt, PERIODS),
-            "psa_surface": spectra.pseudo_acceleration(surface, dt, PERIODS)}
+            "psa_input": psa[0], "psa_surface": psa[1]}
 
 
 def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:

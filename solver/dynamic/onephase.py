@@ -44,10 +44,29 @@ class NodalModel:
         self.mpi = comm.tompi4py()
         self.a = np.zeros(len(b.m))
         self.points = b.points
+        self._surface(ny, nx)
+        self.spectra = histories.StepSpectra(plan.motion, self.dt,
+                                             frame=b.shaking.base == "rigid")
+
+    def _surface(self, ny: int, nx: int) -> None:
+        """The weights of this rank's reduced DOFs in the surface row's mean acceleration
+        in the shaking direction (``top``, ``top_w``): 1 / nx each node, a tied DOF
+        counting for every node it stands for."""
+        b = self.body
+        w = np.where(b.along_full & (b.row == ny - 1), 1.0 / nx, 0.0)  # the full free DOFs
+        if b.T is not None:
+            full, red = b.T.createVecLeft(), b.K.createVecRight()
+            full.setArray(w)
+            b.T.multTranspose(full, red)
+            w = red.getArray().copy()
+            scene.destroy(full, red)
+        self.top = np.flatnonzero(w)
+        self.top_w = w[self.top]
 
     def step(self, t: float) -> None:
         m = self.plan.motion
         self.a = self.body.step(t, m.velocity, m.acceleration)
+        self.spectra.keep(t, float(np.dot(self.a[self.top], self.top_w)), self.mpi)
 
     def _full(self, values) -> np.ndarray:
         self.vec.setArray(values)
@@ -96,9 +115,11 @@ class NodalModel:
         return whole[np.argsort(whole[:, 0])]
 
     def state(self) -> dict:
-        """u, v of every free DOF (natural numbers, gathered on rank 0)."""
+        """u, v of every free DOF (natural numbers, gathered on rank 0) and the state of
+        the spectra from the steps."""
+        steps = self.spectra.state(self.mpi)           # collective, as the gather
         whole = self._gathered(*self.body.state())
-        return {} if whole is None else {"nodal": whole.tolist()}
+        return {} if whole is None else {"nodal": whole.tolist(), **steps}
 
     def restore(self, ckpt) -> None:
         """Take up the state of a checkpoint (:class:`solver.io.checkpoint.Checkpoint`)."""
@@ -107,6 +128,7 @@ class NodalModel:
         at = np.searchsorted(whole[:, 0], idx)
         self.body.u.setArray(whole[at, 1][self.body.kept])
         self.body.v.setArray(whole[at, 2][self.body.kept])
+        self.spectra.restore(ckpt.state, ckpt.state["step"])
 
     def fields(self) -> tuple:
         """(node coordinates (N, 2), {name: (N, 3)}) of every node at the time of the step

@@ -142,7 +142,7 @@ def finish(plan, model, rec, series, record, comm) -> None:
     spec = exact = None
     if plan.motion.form[0] != "none" and len(t) > 8:
         a_in = plan.motion.acceleration(t)
-        spec = histories.spectral(rec, a_in)
+        spec = histories.spectral(rec, a_in, model.spectra.psa(model.mpi))
         block.update(pga_input=float(np.max(np.abs(a_in))),
                      pga_surface=block["peak_surface_acceleration"])
         if not rings(plan):

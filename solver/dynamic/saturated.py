@@ -28,7 +28,7 @@ from ..io import checkpoint
 from ..model import scene
 from ..model.scene import Loading
 from ..references import analytic, waves
-from .histories import COLUMNS, sample_step
+from .histories import COLUMNS, StepSpectra, sample_step
 
 SAFETY = 0.5        # of the smallest critical time step, as the consolidation analysis
 DIED = 6            # decay times after which the waves count as gone (e^-6: 0.25 %)
@@ -74,12 +74,16 @@ class SaturatedColumn:
         self.heights = np.unique(np.round(np.concatenate(self.mpi.allgather(y0)), 12))
         self._rows()
         self.v_before = self.points.get("vs").copy()
+        self.spectra = StepSpectra(plan.motion, self.dt, lag=self.dt, frame=True)
 
     def _rows(self):
         y0 = self.points.get("x0")[:, 1]
         self.row = np.searchsorted(self.heights, np.round(y0, 12))
         self.count = np.maximum(self.mpi.allreduce(
             np.bincount(self.row, minlength=len(self.heights))), 1)
+        # The surface row's points (the records' surface) in the shaking direction.
+        self.top = np.flatnonzero(self.row == len(self.heights) - 1)
+        self.comp = 0 if self.plan.shaking.direction == "x" else 1
 
     def step(self, t: float) -> None:
         self.v_before = self.points.get("vs").copy()
@@ -87,6 +91,8 @@ class SaturatedColumn:
         self.a_b = float(self.plan.motion.acceleration(t))
         base = (self.a_b, 0.0) if self.plan.shaking.direction == "x" else (0.0, self.a_b)
         self.model.step(self.dt, 1.0, 0.0, self.scheme.flip, base)
+        dv = self.points.get("vs")[self.top, self.comp] - self.v_before[self.top, self.comp]
+        self.spectra.keep(t, float(np.sum(dv)) / (self.dt * self.count[-1]), self.mpi)
 
     def means(self, t: float) -> np.ndarray:
         """The row means (rows x COLUMNS) at t + dt (the state after the step taken):
@@ -108,12 +114,14 @@ class SaturatedColumn:
         self.model.check(step, t, self.scale)
 
     def state(self) -> dict:
-        return {}                     # the points hold it all
+        """The spectra from the steps' state (collective); the points hold the rest."""
+        return self.spectra.state(self.mpi)
 
     def restore(self, ckpt) -> None:
         """Take up the points of a checkpoint (:class:`solver.io.checkpoint.Checkpoint`)."""
         checkpoint.scatter(self.points, self.grid, ckpt, "x0")
         self._rows()
+        self.spectra.restore(ckpt.state, ckpt.state["step"])
 
     def references(self, rec) -> dict:
         """The run beside the saturated column's references (see the module's docstring):
