@@ -24,6 +24,7 @@ from ..stepping.scheme import Scheme, lateral_drainage_notes
 from ..stepping.twophase import point_fields
 from . import fe_reference, plan as plans, reporting, schedules, workprecision
 from .implicit import choice
+from .implicit.operators import projects
 from .plan import Outputs, Plan, References
 from .state import RunState, check_end
 
@@ -157,7 +158,7 @@ def set_up(p, comm, record, owned) -> tuple:
                 scene=workprecision.scene_signature(p), provenance=options,
                 restart=p.restart, resumed_id=ckpt.run_id if ckpt else None, goal=goal,
                 target_error=p.target_error, monitor_x=monitor[0], probes=probes,
-                method=method, stabilize=p.pressure_stabilization != "none")
+                method=method, stabilize=projects(p.pressure_stabilization, p.element))
     print_plan(comm, plan, points.n_global)
     return plan, grid, points, state
 

@@ -129,7 +129,8 @@ SPEC = [
            "(report times are step ends)", (CONSOLIDATION,), checks.at_least_one),
     Option("pressure_stabilization", "str", "auto", "implicit scheme: ppp (Dohrmann and "
            "Bochev's polynomial pressure projection, which keeps the undrained start free of "
-           "oscillations), none, auto (ppp)", (CONSOLIDATION,), choices=("auto", "ppp", "none")),
+           "oscillations), none, auto (ppp on Q4 cells; none on Q8 and Q9, the inf-sup stable "
+           "Taylor-Hood pairs)", (CONSOLIDATION,), choices=("auto", "ppp", "none")),
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
            "smallest critical time step", (CONSOLIDATION,), checks.positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
