@@ -110,8 +110,7 @@ def set_up(p, comm, record, owned) -> tuple:
     signature = checkpoint.signature(p)
     outputs = Outputs(p.output, p.summary or os.path.join(p.output, "summary.json"),
                       p.figures, p.figure_format)
-    ckpt = _restart(p.restart, p.overwrite, signature, outputs, comm)
-    run_id = ckpt.run_id if ckpt and ckpt.run_id else checkpoint.new_run_id(comm)
+    ckpt, run_id = checkpoint.take_up(p.restart, p.overwrite, signature, outputs, comm)
     options = provenance.options(p)
     record.begin(outputs, run_id, options)
     signals.stage("set-up: the time scheme and mass scaling")
@@ -161,19 +160,6 @@ def set_up(p, comm, record, owned) -> tuple:
                 method=method, stabilize=projects(p.pressure_stabilization, p.element))
     print_plan(comm, plan, points.n_global)
     return plan, grid, points, state
-
-
-def _restart(path, overwrite, signature, outputs, comm):
-    """The checkpoint at ``path`` (-mpm_restart; :class:`checkpoint.Checkpoint`), or None; before
-    anything is computed or written, InputError when the output folder holds another run's
-    results (a restart never writes over them, not even a stopped run's summary) unless
-    -mpm_overwrite."""
-    if not path:
-        return None
-    ckpt = checkpoint.read(path, signature)
-    if not overwrite:
-        restarts.check_folder(outputs.folder, outputs.summary, path, ckpt.run_id, comm)
-    return ckpt
 
 
 def target(p, comm) -> tuple:

@@ -19,7 +19,6 @@ import os
 from ..common import signals
 from ..common.errors import InputError
 from ..io import checkpoint
-from ..io.restart import check_folder
 from ..run.loop import Cadence, Saving, drive
 from ..run.record import Record, guarded, owned
 from . import histories, reporting
@@ -41,10 +40,8 @@ def run(p, comm) -> int:
 
 def _run(req, comm, record, stack) -> None:
     """The run of the request ``req`` (:class:`solver.dynamic.plan.Request`)."""
-    ckpt = checkpoint.read(req.restart, req.signature) if req.restart else None
-    if ckpt is not None and not req.overwrite:
-        check_folder(req.outputs.folder, req.outputs.summary, req.restart, ckpt.run_id, comm)
-    run_id = ckpt.run_id if ckpt and ckpt.run_id else checkpoint.new_run_id(comm)
+    ckpt, run_id = checkpoint.take_up(req.restart, req.overwrite, req.signature, req.outputs,
+                                      comm)
     record.begin(req.outputs, run_id, req.provenance)
     plan = plan_of(req, comm)
     plan.run["id"] = run_id

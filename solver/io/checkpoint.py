@@ -23,7 +23,7 @@ import numpy as np
 
 from ..common.errors import InputError
 from . import output
-from .restart import FREE_OPTIONS
+from .restart import FREE_OPTIONS, check_folder
 
 VERSION = 2    # 2: reference positions x0 (2 components) in place of y0
 
@@ -66,6 +66,18 @@ def recorded(options: dict) -> dict:
     return output._jsonable({k: used[k] for k in sorted(used) if k != "restart"})
 
 
+def take_up(path: str, overwrite: bool, signature: str, outputs, comm) -> tuple:
+    """(the checkpoint at ``path`` (-mpm_restart) or None, the run's id: the checkpoint's, or
+    a new one). Before anything is computed or written, InputError when the output folder
+    (``outputs``, :class:`output.Outputs`) holds another run's results, which a restart
+    never writes over (not even a stopped run's summary) unless ``overwrite``
+    (-mpm_overwrite)."""
+    ckpt = read(path, signature) if path else None
+    if ckpt is not None and not overwrite:
+        check_folder(outputs.folder, outputs.summary, path, ckpt.run_id, comm)
+    return ckpt, ckpt.run_id if ckpt and ckpt.run_id else new_run_id(comm)
+
+
 def write(path, comm, points, state: dict, sig: str, run: dict):
     """Gather the points on rank 0 and write ``path`` (collective); ``sig`` the run's
     :func:`signature`, ``run``: {"id": the run id, "options": :func:`recorded`}."""
@@ -85,7 +97,8 @@ def write(path, comm, points, state: dict, sig: str, run: dict):
 
 
 def read(path, mine: str) -> Checkpoint:
-    """Load the checkpoint ``path``; raise InputError if it is missing, damaged or of another scene than the one whose
+    """Load the checkpoint ``path``; raise InputError if it is missing, damaged or of another
+    scene than the one whose
     :func:`signature` is ``mine``."""
     if not os.path.isfile(path):
         raise InputError(f"-mpm_restart {path}: no such file")
