@@ -113,8 +113,7 @@ def drive(model: Model, cadence: Cadence, record, saving: Saving, first: int = 1
     comm = record.comm
     mpi = comm.tompi4py() if comm.getSize() > 1 else None
     record.start = record.steps = first - 1
-    record.save = lambda step: saving.write(comm, model, step)
-    record.checkpoint = saving.path
+    record.saving = (lambda step: saving.write(comm, model, step), saving.path)
     record.enter(record.middle)
     t0 = last_print = last_save = time.perf_counter()
     # A blow-up overflows before the periodic check names it in one line; NumPy's warnings
@@ -137,14 +136,13 @@ def drive(model: Model, cadence: Cadence, record, saving: Saving, first: int = 1
             if mpi is not None:
                 flags = mpi.allreduce(flags, op=_bor())
             if flags or cadence.checkpoints(k):
-                saving.write(comm, model, k)
-                record.files["checkpoint"] = saving.path
+                record.save(k)
                 last_save = time.perf_counter()
             if flags & 2:
                 raise Interrupted(f"stopped by {stop.name or 'a signal'} at step {k} "
-                                  f"(t = {model.time(k):.6g} s); checkpoint {saving.path}; continue "
-                                  f"with -mpm_restart {saving.path}", stage=record.middle,
-                                  agreed=True)
+                                  f"(t = {model.time(k):.6g} s); checkpoint {saving.path}; "
+                                  f"continue with -mpm_restart {saving.path}",
+                                  stage=record.middle, agreed=True)
             record.whole = k
             if cadence.progress_seconds and now - last_print > cadence.progress_seconds:
                 last_print = now

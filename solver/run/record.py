@@ -43,7 +43,7 @@ class Record:
 
     ``results`` holds the analysis's block, ``files`` what it wrote; the loop sets
     ``steps`` and ``whole`` (the last step whose state and records agree, None mid-step) and
-    ``save`` (``save(step)`` writes a checkpoint, collective) with ``checkpoint`` its path."""
+    ``saving`` (how to write a checkpoint, :meth:`save`)."""
 
     def __init__(self, analysis: str, comm):
         self.analysis, self.comm = analysis, comm
@@ -60,8 +60,7 @@ class Record:
         self.steps = None if analysis == "eigen" else 0
         self.start = 0               # the step the run started from (a restart's)
         self.whole = None
-        self.save = None
-        self.checkpoint = ""
+        self.saving = None           # (write(step), path) of the checkpoints, once stepping
 
     def begin(self, outputs: output.Outputs, run_id, options: dict) -> None:
         """From here on a failure writes the summary (``outputs.summary``): the run's id and
@@ -113,6 +112,14 @@ class Record:
                                             self.summary(True)["files"]), comm=self.comm)
         PETSc.Sys.Print(f"{self.clock.line()}; summary {self.path}", comm=self.comm)
 
+    def save(self, step: int) -> str:
+        """Write the checkpoint after step ``step`` (collective) and list it among the
+        files; returns its path."""
+        write, path = self.saving
+        write(step)
+        self.files["checkpoint"] = path
+        return path
+
     def stage(self) -> str:
         """Where the run is: its phase, and what it does there when the signals' stage
         says more ("set-up: the body")."""
@@ -131,13 +138,12 @@ class Record:
         part) and the state is whole after a step of this run, then the summary (rank 0);
         returns what the error line adds ("; checkpoint ..., summary ...")."""
         said = []
-        if checkpoint and self.save is not None and self.whole is not None \
+        if checkpoint and self.saving is not None and self.whole is not None \
                 and self.whole > self.start:
             try:
-                self.save(self.whole)
-                said.append(f"checkpoint {self.checkpoint} at step {self.whole} (continue "
-                            f"with -mpm_restart {self.checkpoint})")
-                self.files["checkpoint"] = self.checkpoint
+                path = self.save(self.whole)
+                said.append(f"checkpoint {path} at step {self.whole} (continue with "
+                            f"-mpm_restart {path})")
             except Exception as err:   # noqa: BLE001  (the disk may be what failed)
                 said.append(f"no checkpoint ({describe(err)})")
         wrote = self.write(False, self.error(message, code))
