@@ -1,5 +1,6 @@
-"""The consolidation analysis's figures, shared by the solver and ``scripts/reproduce-paper``: isochrones
-against both Terzaghi references (classic and compressible water), and the pore-pressure field.
+"""The consolidation analysis's figures, shared by the solver and
+``scripts/reproduce-paper``: isochrones against both Terzaghi references (classic and
+compressible water), and the pore-pressure field.
 
 Heights and widths in m, pore pressure in kPa or normalised by the load q (p / q), the time
 factor T_v dimensionless. The caller makes the figure (``output.pyplot()``) and saves it

@@ -1,6 +1,7 @@
 """What goes in and out of a run: the options read from the command line and the scene files;
-the results on disk (summaries, fields, figures, checkpoints, provenance); the memory check before anything is allocated; the start-up of the executables. It
-knows nothing of the analyses: they call it.
+the results on disk (summaries, fields, figures, checkpoints, provenance); the memory check
+before anything is allocated; the start-up of the executables. It knows nothing of the
+analyses: they call it.
 
 - ``options``: the -mpm_ options: declared once, read once, checked;
 - ``scenefile``: a scene file (cases/*.opts), checked line by line and read as pairs;

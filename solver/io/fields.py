@@ -1,5 +1,6 @@
 """The point fields of a stepping run (consolidation, two-phase dynamics) as a time series
-on disk (``points.xdmf`` and one ``points_<step>.h5`` per time, :class:`output.XdmfSeries`), marked with the run's id."""
+on disk (``points.xdmf`` and one ``points_<step>.h5`` per time, :class:`output.XdmfSeries`),
+marked with the run's id."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Site response of a layered shear column: the exact one-dimensional references of the dynamic analysis.
+"""Site response of a layered shear column: the exact one-dimensional references of the
+dynamic analysis.
 
 Vertically propagating shear waves through horizontal layers (thickness h, shear-wave speed
 Vs, density rho, hysteretic damping ratio xi each) on a rigid base or on an elastic

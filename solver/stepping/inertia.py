@@ -262,6 +262,7 @@ def check_feasible(req, scheme, soil, body):
                          f"than {MAX_STEPS:.0e} (" + "".join(f"with {w}: {n:.3g}; "
                                                              for w, n in ways)
                          + "shorten the run or coarsen the grid)")
-    raise InputError(f"-mpm_mass_scaling {scheme.mass_scaling_choice}: at least {estimate:.3g} steps to "
-                     f"T_v = {req.Tv_end:g} with {drag} drag, more than {MAX_STEPS:.0e}; steps "
-                     "with " + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))
+    raise InputError(f"-mpm_mass_scaling {scheme.mass_scaling_choice}: at least "
+                     f"{estimate:.3g} steps to T_v = {req.Tv_end:g} with {drag} drag, more "
+                     f"than {MAX_STEPS:.0e}; steps with "
+                     + "; with ".join(f"{w}: {n:.3g}" for w, n in ways))
