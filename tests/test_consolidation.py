@@ -11,7 +11,7 @@ import os
 
 import numpy as np
 import pytest
-from conftest import check_ok
+from conftest import check_ok, scene_options
 
 # Paper Table 5 (Q4 meshes) and Table 4 (M1, element order): percent errors at T_v = 0.5, 1.
 PAPER_ERRORS = {"m1-q4": (6.17, 8.68), "m2-q4": (4.59, 7.33), "m3-q4": (3.70, 6.48),
@@ -346,3 +346,43 @@ def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():
         frequency.JACOBI_MAX_DOFS = low
     assert slepc_f1 == pytest.approx(jacobi_f1, rel=1e-9)
     assert slepc_f1 == pytest.approx(16.89, rel=2e-3)      # the column's f1 (Table 3)
+
+
+# The laterally drained block of docs/studies.md (1.2 m square, 15 kPa on an impermeable top
+# that settles, drained left and right), 8 cells wide as there and 4 high (the mode that
+# HRZ feeds runs along the top: the body's width, not its height, carries it).
+BLOCK = dict(element="q8", ppc=3, cells="8,4", size="1.2,0.6", E=8e6, nu=0.2, porosity=0.4,
+             rho_s=2650, rho_l=1000, K_l=2e9, k=2e-4, load=15e3, gravity=0,
+             drained="left,right", bc_left="x", bc_right="x", bc_bottom="xy", bc_top="none",
+             drag="implicit", damping=0, fast_damping=0.5, mass_scaling=0.136)
+
+
+def test_q8_block_is_stable_below_its_limit_and_hrz_is_refused():
+    """Q8's default lumping (the blended basis, pure FLIP) on the block: the whole grid's
+    linearised step has spectral radius <= 1 at every step below its limit, which is a
+    threshold (unstable just above it). HRZ with 1 % PIC (its former default) grows at
+    steps below the limit that bisection finds, and the analysis refuses it with that step."""
+    from petsc4py import PETSc
+
+    from conftest import typed
+
+    from solver.common.errors import InputError
+    from solver.model.grid import Grid
+    from solver.model.points import place
+    from solver.stepping import timestep
+
+    t = typed(scene_options(**BLOCK))
+    assert (t.scheme.lumping, t.scheme.flip) == ("blended", 1.0)
+    limit, cells = timestep.discrete_limit(PETSc.COMM_SELF, t.body, t.soil, t.scheme)
+    assert cells == (8, 4)
+    with Grid(PETSc.COMM_SELF, "q8", (8, 4), t.body.size) as grid, \
+            place(grid, 3, t.soil.point_density, "uniform") as points:
+        parts = timestep._linear_parts(grid, points, t.body, t.soil, t.scheme)
+        for f in (1e-3, 1e-2, 0.1, 0.3, 0.6, 0.9, 0.999):
+            assert timestep._spectral_radius(parts, 1.0, f * limit) <= 1 + timestep.RADIUS_TOL
+        assert timestep._spectral_radius(parts, 1.0, 1.01 * limit) > 1 + 1e-3
+    hrz = typed(scene_options(**BLOCK, lumping="hrz"))
+    assert hrz.scheme.flip == 0.99
+    with pytest.raises(InputError, match=r"-mpm_lumping hrz: the explicit step grows by .* "
+                                         r"per step at dt = .* s, below the limit"):
+        timestep.discrete_limit(PETSc.COMM_SELF, hrz.body, hrz.soil, hrz.scheme)

@@ -185,10 +185,12 @@ SPEC = [
            "scaled wave period 4H/c1); both phases alike, so Darcy flow is untouched; takes "
            "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
     Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
-           "(0: PIC), or auto (1; 0.99 for q8 with the corner pressure projection, whose "
-           "pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), checks.fraction),
-    Option("lumping", "str", "auto", "lumped masses and drag: rowsum, hrz, auto (hrz for q8)",
-           (CONSOLIDATION,), choices=("auto", "rowsum", "hrz")),
+           "(0: PIC), or auto (1; 0.99 for hrz lumping with the corner pressure projection, "
+           "whose pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), checks.fraction),
+    Option("lumping", "str", "auto", "lumped masses and drag, and the solid's transfer: rowsum, hrz, blended (the "
+           "solid's transfer in the liquid's blended basis N_hat both ways), auto (blended for "
+           "q8, else rowsum)",
+           (CONSOLIDATION,), choices=("auto", "rowsum", "hrz", "blended")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
            "points' initial positions: small strains, as the constant volumes and porosity "
            "assume), large (at their current positions: moving-point MPM), auto (small)",
@@ -196,7 +198,7 @@ SPEC = [
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
            "point), nodal (projected onto the nodal field and interpolated back), corner "
            "(onto the bilinear field of the cells' corner nodes: a pressure of lower order "
-           "than the quadratic cells' velocities), auto (nodal for q4, none for q8 and q9)",
+           "than the quadratic cells' velocities), auto (nodal for q4, corner for q8 and q9)",
            (CONSOLIDATION,), choices=("auto", "none", "nodal", "corner")),
     Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
            "force, velocity transfers and relative motion): element (N), blended (N/2 + "

@@ -72,7 +72,7 @@ AR, AB, AGL, AGO, AOO, AOL, APL, APO = range(13, 29, 2)
 # ... and the scheme's integers.
 (INF,       # nodal sums per node (NF, or NF + 1 with the blended liquid basis)
  IBLEND,    # 1: the liquid in the blended basis N_hat
- IHRZ,      # 1: HRZ lumping weights, 0: row sums (w = N)
+ ISOLIDB,   # 1: the solid's transfer (weights and interpolation) in the blended basis N_hat
  IPROJ,     # pore-pressure increments: 0 per point, 1 projected through the nodes (PNODAL),
             # 2 through the corner nodes' bilinear field (PCORNER)
  IIMPL,     # 1: implicit drag
@@ -315,6 +315,8 @@ def points_to_grid(off, C, hrz, blend, layered):
     # writes them.
     K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
+    if C[ISOLIDB]:
+        rw = rnl                                 # w = N_hat (-mpm_lumping blended)
     r7 = rnl if C[IPROJ] == PCORNER else rlx     # the liquid force's x row (N_l: grad form)
     for k in range(n):
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
@@ -516,6 +518,11 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off)), (NS, nen))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
+    # The row that interpolates the solid's velocities: N, or N_hat where the solid's
+    # transfer is blended (its weights too); its strain rate takes grad N either way.
+    rs = SN
+    if C[ISOLIDB]:
+        rw = rs = rnl
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))  # sum_a S[r, a] O[a, f], rows as S's
     nr = 3 if blend is None else NS
     for k in range(n):
@@ -546,14 +553,14 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
             if layered is not None:               # the Darcy flux, in the liquid's basis
                 A[rnl, 8], A[rnl, 9] = A[rnl, 8] + S[rnl, a] * h[8], A[rnl, 9] + S[rnl, a] * h[9]
                 A[rlx, 8], A[rly, 9] = A[rlx, 8] + S[rlx, a] * h[8], A[rly, 9] + S[rly, a] * h[9]
-        a4, a5 = A[SN, 4], A[SN, 5]                                    # v_s^{k+1}
+        a4, a5 = A[rs, 4], A[rs, 5]                                    # v_s^{k+1}
         l00, l01, l10, l11 = A[SX, 4], A[SY, 4], A[SX, 5], A[SY, 5]    # grad v_s [i, j]
         dvl = A[rlx, 6] + A[rly, 7]                                    # div v_l
         if blended:
             # div(v_l - v_s) in the liquid's basis: storage div v_s + n div(v_l - v_s), whose
             # power the liquid force balances exactly.
             dvl -= A[SLX, 4] + A[SLY, 5]
-        _advance(vs, vl, k, A, rnl, flip, dt)
+        _advance(vs, vl, k, A, rs, rnl, flip, dt)
         e0, e1, e2 = l00 * dt, l11 * dt, (l01 + l10) * dt
         divs = l00 + l11
         for i in range(3):
@@ -577,11 +584,11 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
 
 
 @_jit
-def _advance(vs, vl, k, A, rnl, flip, dt):
-    """Point k's velocities (m/s) from the interpolated nodal results A (row SN, and the
-    liquid's in its basis, row rnl: a_s, a_l, v_s^{k+1}, v_l^{k+1}): FLIP, or the
-    FLIP/PIC blend ``flip``."""
-    a0, a1, a4, a5 = A[SN, 0], A[SN, 1], A[SN, 4], A[SN, 5]
+def _advance(vs, vl, k, A, rs, rnl, flip, dt):
+    """Point k's velocities (m/s) from the interpolated nodal results A (the solid's in its
+    transfer basis, row rs, and the liquid's in its basis, row rnl: a_s, a_l, v_s^{k+1},
+    v_l^{k+1}): FLIP, or the FLIP/PIC blend ``flip``."""
+    a0, a1, a4, a5 = A[rs, 0], A[rs, 1], A[rs, 4], A[rs, 5]
     a2, a3, a6, a7 = A[rnl, 2], A[rnl, 3], A[rnl, 6], A[rnl, 7]
     if flip != 1.0:
         vs[k, 0] = flip * (vs[k, 0] + dt * a0) + (1 - flip) * a4

@@ -25,7 +25,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..common import signals
-from ..common.errors import NotConverged, NumericalError
+from ..common.errors import InputError, NotConverged, NumericalError
 from ..modal import frequency
 
 from ..model import assembly, shapes
@@ -90,7 +90,7 @@ def discrete_limit(comm, body, soil, scheme) -> tuple:
     itself: two or a few dense eigenvalue problems instead of about seventeen.
     """
     cells = analysis_cells(body.element, body.cells)
-    limit = None
+    limit = failure = None
     if comm.getRank() == 0:
         small = _patch(body.element, cells, ESTIMATE_STATE)
         layers = soil.soils
@@ -102,11 +102,21 @@ def discrete_limit(comm, body, soil, scheme) -> tuple:
             patches = (soil,)
         else:
             patches = tuple(layers) + _interfaces(soil, body, cells)
-        estimate = None if small == cells else min(
-            _limit_on(body, one, scheme, small) for one in patches)
-        limit = min(_limit_on(body, one, scheme, cells, estimate) for one in patches)
-        limit *= viscous_factor(scheme.bulk_viscosity)
-    return comm.tompi4py().bcast(limit, root=0), cells
+        try:
+            estimate = None if small == cells else min(
+                _limit_on(body, one, scheme, small) for one in patches)
+            limit = min(_limit_on(body, one, scheme, cells, estimate) for one in patches)
+            limit *= viscous_factor(scheme.bulk_viscosity)
+        except UnstableBelow as e:
+            failure = str(e)
+    limit, failure = comm.tompi4py().bcast((limit, failure), root=0)
+    if failure:
+        raise InputError(failure)
+    return limit, cells
+
+
+class UnstableBelow(Exception):
+    """The explicit step grows at a step below the limit that the bisection found."""
 
 
 def _interfaces(ground, body, cells) -> tuple:
@@ -134,8 +144,35 @@ def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
         guess = min(min(grid.h) / layer.wave_speeds(S)["c1"] for layer in soil.soils)
         if scheme.drag == "explicit":
             guess = min(2 / soil.drag_rate(S), guess)
-        return _bisect_limit(_linear_parts(grid, points, body, soil, scheme), scheme.flip,
-                             guess, estimate=estimate)
+        parts = _linear_parts(grid, points, body, soil, scheme)
+        limit = _bisect_limit(parts, scheme.flip, guess, estimate=estimate)
+        if scheme.lumping == "hrz":
+            _check_below(parts, scheme.flip, limit)
+        return limit
+
+
+# Halvings below the limit at which a step with HRZ lumping is checked (_check_below).
+LADDER = 8
+
+
+def _check_below(parts, flip, limit):
+    """UnstableBelow when the step grows at limit / 2^k, k = 1..LADDER. HRZ spreads a
+    point's momentum with weights other than the N that brings the velocity back, so the
+    round trip R is not symmetric, the semi-discrete operator not either, and its
+    stability need not be monotone in dt: Q8 cells 8 wide with an impermeable side that
+    moves (the laterally drained block) grow by 7e-4 per step at 1/8 and 1/16 of the limit
+    that bisection finds on its 4 x 8 patch, and at every step on the whole grid. Row sums
+    and the blended basis weigh with the N they interpolate with (R symmetric in the mass
+    inner product): their limit is a threshold."""
+    for k in range(1, LADDER + 1):
+        dt = limit / 2 ** k
+        radius = _spectral_radius(parts, flip, dt)
+        if radius > 1 + RADIUS_TOL:
+            raise UnstableBelow(
+                f"-mpm_lumping hrz: the explicit step grows by {radius - 1:.2g} per step at "
+                f"dt = {dt:.3g} s, below the limit {limit:.3g} s found above it (HRZ's "
+                f"transfer is not symmetric); use -mpm_lumping blended (Q8's default) or "
+                f"-mpm_scheme implicit")
 
 
 def viscous_factor(b1: float) -> float:
@@ -176,16 +213,25 @@ def _linear_parts(grid, points, body, soil, scheme):
         np.add.at(out, (rows, nodes.ravel()), values.ravel())
         return out
 
-    Nm, Wm = spread(N), spread(assembly.lumping_weights(N, scheme.lumping))
+    Nm = spread(N)
     Dx, Dy = spread(dN[..., 0]), spread(dN[..., 1])
     Z = np.zeros_like(Dx)
     B = np.stack([np.hstack([Dx, Z]), np.hstack([Z, Dy]), np.hstack([Dy, Dx])], axis=1)
     div = B[:, 0] + B[:, 1]
     # The liquid's weights Wl, interpolation Nl and divergence Dl: w, N and div, or the
     # blended N_hat for all three.
-    if scheme.liquid_basis == "blended":
+    # The solid's transfer: weights Wm and interpolation Ns, N_hat for both with
+    # -mpm_lumping blended (its strain rate takes B either way).
+    Ns = Nm
+    if "blended" in (scheme.liquid_basis, scheme.lumping):
         bl = assembly.interpolation(grid, x, blended=True)
-        Wl = Nl = spread(bl.N)
+        Nhat = spread(bl.N)
+    if scheme.lumping == "blended":
+        Wm = Ns = Nhat
+    else:
+        Wm = spread(assembly.lumping_weights(N, scheme.lumping))
+    if scheme.liquid_basis == "blended":
+        Wl = Nl = Nhat
         Dl = np.hstack([spread(bl.dNdx[..., 0]), spread(bl.dNdx[..., 1])])
     else:
         Wl, Nl, Dl = Wm, Nm, div
@@ -222,7 +268,7 @@ def _linear_parts(grid, points, body, soil, scheme):
     fm = -(B * V[:, None, None]).reshape(npt * ncomp, ncol).T @ sig.reshape(npt * ncomp, -1)
     if fl is None:
         fl = Dl.T @ (V[:, None] * pres)
-    Rs = _inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Nm)
+    Rs = _inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Ns)
     Rl = _inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
     R = np.zeros((4 * nn, 4 * nn))
     for b, Rb in enumerate((Rs, Rs, Rl, Rl)):

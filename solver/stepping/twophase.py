@@ -95,9 +95,10 @@ def point_fields(scheme, layered: bool = False) -> dict:
 def kernel_variant(element: str, scheme, layered: bool = False) -> tuple:
     """The compiled variant of the step's kernels for a cell type, scheme and material: the
     number of the cell's nodes, and the lumping, liquid basis and material as None (row
-    sums, the element's basis, one material) or True (HRZ, blended, per-point layers):
+    sums or the blended basis, the element's basis, one material) or True (HRZ, blended,
+    per-point layers):
     their types select the machine code (one material pays nothing for layers)."""
-    return (len(shapes.OFFSETS[element]), True if scheme.lumping != "rowsum" else None,
+    return (len(shapes.OFFSETS[element]), True if scheme.lumping == "hrz" else None,
             True if scheme.liquid_basis == "blended" else None, True if layered else None)
 
 
@@ -149,7 +150,8 @@ class TwoPhase:
         self.pfields = 2 if self.project == kernels.PCORNER else 1
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
-        self.hrz = self.lumping != "rowsum"
+        # -mpm_lumping blended: the solid's transfer (weights and interpolation) in N_hat.
+        self.solid_blended = self.lumping == "blended"
         # Layers: per-point material (kernels.NL reals per layer), NLS more nodal sums and
         # the nodal Darcy flux among the results.
         self.layers = soil.soils
@@ -258,8 +260,8 @@ class TwoPhase:
         numbering."""
         g, K = self.grid, kernels
         I[K.INF] = self.nf
-        I[K.IBLEND], I[K.IHRZ], I[K.IPROJ], I[K.IIMPL] = (self.blend, self.hrz, self.project,
-                                                          self.implicit)
+        I[K.IBLEND], I[K.ISOLIDB], I[K.IPROJ], I[K.IIMPL] = (
+            self.blend, self.solid_blended, self.project, self.implicit)
         I[K.ICMX], I[K.ICMY] = g.cells[0] - 1, g.cells[1] - 1
         # Ghosted-local node of local node a of cell (cx, cy): order (cx + gxm cy) + off[a].
         I[K.ISTX], I[K.ISTY] = g.order, g.order * g.gxm
