@@ -303,8 +303,9 @@ PAPER_SCENES = [("q4", "1,10", 2), ("q8", "1,10", 3), ("q9", "1,10", 3), ("q4", 
 def test_refined_grids_take_the_patch_and_keep_the_limit():
     """The dense analysis of the whole grid stays for the paper's scenes
     (their limits unchanged) and refined Q4 grids (5 x 50 and beyond: 14-18 s at 8 x 80
-    before) take the 4 x 10 patch; its limit is the whole grid's, computed here densely on
-    5 x 50 cells (the explicit drag's scheme of the paper's scenes)."""
+    before) take the 4 x 10 patch and a wide one (up to 10 x 4); their limit is never
+    above the whole grid's and at most 0.1 % below it (the 5 x 4 patch: 0.07 %), computed
+    here densely on 5 x 50 cells (the explicit drag's scheme of the paper's scenes)."""
     from conftest import scene_options
     from petsc4py import PETSc
 
@@ -315,14 +316,15 @@ def test_refined_grids_take_the_patch_and_keep_the_limit():
     drag = dict(drag="explicit", damping=0.5, fast_damping=0, mass_scaling="none")
     for element, cells, ppc in PAPER_SCENES:
         p = scene_options(element=element, cells=cells, ppc=ppc, **drag)
-        assert timestep.analysis_cells(p.element, p.cells) == p.cells, (element, cells)
+        assert timestep.analysis_cells(p.element, p.cells) == (p.cells,), (element, cells)
     for cells in ("5,50", "6,60", "8,80", "20,200"):
         p = scene_options(cells=cells, **drag)
-        assert timestep.analysis_cells(p.element, p.cells) == (4, 10), cells
+        wide = (min(p.cells[0], 10), 4)
+        assert timestep.analysis_cells(p.element, p.cells) == ((4, 10), wide), cells
     t = typed(scene_options(cells="5,50", **drag))
     patch, _ = timestep.discrete_limit(PETSc.COMM_SELF, t.body, t.soil, t.scheme)
     whole = timestep._limit_on(t.body, t.soil, t.scheme, t.body.cells, estimate=patch)
-    assert patch == pytest.approx(whole, rel=2e-4)
+    assert whole * (1 - 1e-3) <= patch <= whole * (1 + 2e-4)
 
 
 def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():

@@ -315,8 +315,7 @@ def points_to_grid(off, C, hrz, blend, layered):
     # writes them.
     K = carray(_on_stack(_ZROWS), (NS, NFMAX))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
-    if C[ISOLIDB]:
-        rw = rnl                                 # w = N_hat (-mpm_lumping blended)
+    rw = rnl if C[ISOLIDB] else rw               # w = N_hat (-mpm_lumping blended)
     r7 = rnl if C[IPROJ] == PCORNER else rlx     # the liquid force's x row (N_l: grad form)
     for k in range(n):
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
@@ -518,11 +517,8 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     offs = carray(_on_stack(off), nen)
     S = carray(_on_stack(_scratch_rows(off)), (NS, nen))
     rw, rnl, rlx, rly, rwl = _row_numbers(hrz, blend)
-    # The row that interpolates the solid's velocities: N, or N_hat where the solid's
-    # transfer is blended (its weights too); its strain rate takes grad N either way.
-    rs = SN
-    if C[ISOLIDB]:
-        rw = rs = rnl
+    # The solid's velocities from N, or N_hat (-mpm_lumping blended); grad N either way.
+    rs, rw = (rnl, rnl) if C[ISOLIDB] else (SN, rw)
     A = carray(_on_stack(_ZROWS), (NS, NFMAX))  # sum_a S[r, a] O[a, f], rows as S's
     nr = 3 if blend is None else NS
     for k in range(n):
