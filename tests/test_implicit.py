@@ -117,12 +117,13 @@ def _first_steps(element, K_l, stabilize):
 @pytest.mark.parametrize("K_l", [120e6, 1e12], ids=["K_l-120MPa", "incompressible"])
 def test_undrained_start_without_overshoot_with_the_projection(K_l):
     """Q4/Q4 with the pressure projection: the undrained start is B q to round-off and the
-    first steps' pressure stays within 1 % of q above it (measured: 0.22 %); without the
-    projection Q4/Q4 overshoots by over 30 % of q next to the drained top, the failure the
-    projection mends (measured: 40-45 %)."""
+    first steps' pressure stays within 6 % of q above it (measured: 5.3 % with tau = 3 /
+    E_c, Aguilar et al.'s optimal perturbation); without the projection Q4/Q4 overshoots
+    by over 30 % of q next to the drained top, the failure the projection mends (measured:
+    40-45 %)."""
     start, over = _first_steps("q4", K_l, True)
     assert start < 1e-9
-    assert over < 0.01
+    assert over < 0.06
     _, bare = _first_steps("q4", K_l, False)
     assert bare > 0.3
 
