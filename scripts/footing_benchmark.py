@@ -132,7 +132,8 @@ def mass_scaling(cells) -> float:
     p, ground, body, loading = _scene(cells)
     soil = ground.as_material()
     period = inertia.slowest_period(PETSc.COMM_SELF, body, soil, loading)
-    return Scheme.from_options(p, soil, min(p.Tv_report), period).mass_scaling
+    swings = inertia.load_swings(PETSc.COMM_SELF, body, soil, loading)
+    return Scheme.from_options(p, soil, min(p.Tv_report), period, swings).mass_scaling
 
 
 def explicit_estimate(cells, budget, folder) -> dict:

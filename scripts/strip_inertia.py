@@ -61,7 +61,7 @@ def fe_body(o):
 
     return biot.Body(size=tuple(o["size"]), E=value("E"), nu=value("nu"), k=value("k"),
                      porosity=value("porosity"), K_l=o["K_l"], rho_l=o["rho_l"],
-                     load=o["load"], loaded=tuple(o["load_extent"]),
+                     load=o["load"], loaded=tuple(o["load_extent"]) or (0.0, o["size"][0]),
                      drained=tuple(s for s in o["drained"] if s != "none"),
                      layers=tuple(o["layers"]) if o["layers"] else None,
                      bcs={s: o[f"bc_{s}"] for s in biot.SIDES})

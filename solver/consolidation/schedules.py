@@ -50,7 +50,7 @@ def limits_and_schedule(comm, req, method, model, h, state, restarted, refs) -> 
     if method == "implicit":
         limits = Limits({}, "", (), math.nan, inertia.regime(
             soil, body.height, min(req.Tv_report), scheme.damping, scheme.fast_damping, 1.0,
-            scheme.wave_period))
+            scheme.wave_period, scheme.swings))
         return limits, implicit_schedule(req, refs, state)
     limits = explicit_limits(comm, req, model, h, state, restarted)
     return limits, Schedule(state.dt, *step_counts(refs, state.dt, req.Tv_end, req.Tv_report),
@@ -98,7 +98,7 @@ def check_dt(comm, limits, dt, soil, H, scheme, first_tv, allow_unstable) -> Lim
     exceeded = [k for k, v in timestep.applicable(limits.steps, scheme.drag).items()
                 if dt > v]
     regime = inertia.regime(soil, H, first_tv, scheme.damping, scheme.fast_damping,
-                            scheme.mass_scaling, scheme.wave_period)
+                            scheme.mass_scaling, scheme.wave_period, scheme.swings)
     PETSc.Sys.Print(inertia.describe(regime), comm=comm)
     stability = timestep.stability_limits(limits.steps, scheme.drag)
     worst = max(stability, key=lambda k: dt / stability[k])

@@ -120,7 +120,8 @@ def set_up(p, comm, record, owned) -> tuple:
     if ckpt is not None:            # an end before the checkpoint: refused up front
         check_end(p.restart, ckpt.state, refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
-                                 inertia.slowest_period(comm, body, soil, loading))
+                                 inertia.slowest_period(comm, body, soil, loading),
+                                 inertia.load_swings(comm, body, soil, loading))
     req = choice.Request.from_options(p)
     method = schedules.method(comm, req, soil, body, scheme, refs, ckpt and ckpt.state)
     fields = point_fields(scheme, ground.count > 1)

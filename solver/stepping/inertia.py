@@ -20,9 +20,14 @@ T_w,S = T_w sqrt(S), Pi_S = Pi / sqrt(S): S > 1 makes slow scenes feasible, S < 
 fast ones accurate.
 
 Two inertia errors at the earliest report time t_r (tau_r = c2 t_r / H^2), in units of q:
-- the wave. It starts at about p0 <= q, and each period of the damped slowest mode
-  (T_d) multiplies it by r, so after N = t_r / T_d periods it is r^N (``decay``); every
-  faster mode decays faster in time, so r^N bounds them all:
+- the wave (:mod:`solver.stepping.waves`). The sudden load sets the body's undrained modes
+  swinging about its undrained state, each by what it holds of that state; at t_r each
+  has decayed by its own rate under the step's damping, and the estimate is the largest
+  sum of what is left, over the points (``load_swings``, ``_wave_error``). Measured
+  against the same runs with S / 100 (docs/studies.md, "The inertia estimate"), it bounds
+  the effect within a factor of 10 on columns, laterally drained blocks and strip
+  footings. Without the body's modes (a closed form for a column) it takes one mode of
+  amplitude q at the slowest wave's period, which decays per damped period T_d by r:
   - local damping alpha turns a free oscillation into quarter-periods of stiffness
     (1 + alpha) k outwards and (1 - alpha) k back: r = (1 - alpha) / (1 + alpha) exactly
     (a single mode), T_d = T_w (1 / sqrt(1 + alpha) + 1 / sqrt(1 - alpha)) / 2;
@@ -47,13 +52,13 @@ estimate. On the stiff column (cases/consolidation-stiff.opts, 1 x 40 Q4 cells) 
 was off by 0.17 % of q (1.7 % of p) with Pi_S = 80; on the paper's column p at T_v = 0.1
 moved by 0.33, 0.10, 0.04 and 0.01 % of q with Pi_S = 200, 250, 300 and 400 (against
 Pi_S = 435), so ``auto`` also keeps Pi_S >= PI_MIN = 300.
-``auto`` takes the largest S with both estimates at most TOLERANCE and Pi_S >= PI_MIN:
-    t_r / T_d >= ln(1 / TOLERANCE) / ln(1 / r),    S <= TOLERANCE lambda t_r / LAG.
-Measured (tests/test_inertia.py, docs/method.md, scripts/strip-inertia): on the columns the
-wave estimate is conservative by up to a factor 3 when the oscillation has decayed far, and
-close near the tolerance; on the strip footing, against the same run with S / 100, by a
-factor 6 (S = 1) to 70 (auto): its largest pressure error starts near 0.2 q, not q, and its
-slowest mode is the undrained one, above f1, which the damper takes out faster.
+``auto`` takes the largest S with both estimates at most TOLERANCE and Pi_S >= PI_MIN
+(the wave's by bisection in S over the body's modes; the closed form's is
+t_r / T_d >= ln(1 / TOLERANCE) / ln(1 / r)) and S <= TOLERANCE lambda t_r / LAG.
+Measured (tests/test_inertia.py, docs/studies.md, scripts/strip-inertia --bound): the modal
+estimate over the effect against S / 100, at its first report, 1.3 on the paper's column at
+S = 10, 5.2 on the laterally drained block at S = 1 (the closed form said 34 % of q there,
+60 times the 0.58 % measured), 5.9 on the strip footing at S = 0.1.
 ``auto`` depends on the earliest report time: reported later, a run gets a larger S; since
 the bound holds at every later time, the answer at any report moves by less than twice
 TOLERANCE when the report times move (the strip at T_v = 0.05 and 0.1: 4 digits).
@@ -68,7 +73,7 @@ import numpy as np
 
 from ..common.errors import InputError
 from ..modal import frequency
-from . import timestep
+from . import timestep, waves
 
 TOLERANCE = 0.002   # inertia error that -mpm_mass_scaling auto allows (fraction of q)
 VISIBLE = 0.01      # inertia error that biases a comparison with Terzaghi visibly
@@ -134,12 +139,31 @@ def _shear_period(soil, H: float) -> float:
                    for d, s in zip(depths, layers))
 
 
+def load_swings(comm, body, soil, loading):
+    """The undrained modes the scene's load excites (:func:`waves.swings`), computed on
+    rank 0 and shared (collective)."""
+    sw = waves.swings(body, soil, loading) if comm.getRank() == 0 else None
+    return comm.tompi4py().bcast(sw, root=0)
+
+
+def _wave_error(soil, H, first_tv, alpha, zeta, S, period, swings) -> float:
+    """The wave estimate at the earliest report (fraction of q): the swings of the
+    body's undrained modes left then (:func:`waves.left`), or without them the closed form
+    r^(t_r / T_d) of one mode of amplitude q at the slowest wave's period."""
+    T_w, _, t_r = _times(soil, H, first_tv, period)
+    if swings is not None:
+        return waves.left(swings, t_r, S, alpha, zeta, 2 * math.pi / T_w)
+    r, stretch = decay(alpha, zeta)
+    return r ** (t_r / (T_w * math.sqrt(S) * stretch))
+
+
 def regime(soil, H: float, first_tv: float, alpha: float, zeta: float,
-           S: float = 1.0, period: float = math.nan) -> dict:
+           S: float = 1.0, period: float = math.nan, swings=None) -> dict:
     """The inertia regime of a body of ``soil``, height H (m), first reported at T_v
     ``first_tv``, under local damping ``alpha`` and fast-part damping ``zeta``, with mass
     scaling S; ``period`` the slowest wave's period (s, :func:`slowest_period`; NaN: the
-    column's 4H/c1): time scales (s), Pi, Pi_S, the wave periods before the earliest
+    column's 4H/c1), ``swings`` the modes the load excites (:func:`load_swings`; None:
+    the closed form): time scales (s), Pi, Pi_S, the wave periods before the earliest
     report, both error estimates (fractions of q)."""
     T_w, T_c, t_r = _times(soil, H, first_tv, period)
     Pi = T_c / T_w
@@ -153,17 +177,19 @@ def regime(soil, H: float, first_tv: float, alpha: float, zeta: float,
             "consolidation_time_s": T_c, "Pi": Pi,
             "mass_scaling": S, "Pi_S": Pi / math.sqrt(S), "wave_period_scaled_s":
             T_w * math.sqrt(S), "first_report_Tv": first_tv, "first_report_s": t_r,
-            "periods_to_first_report": periods, "wave_error": r ** periods,
+            "periods_to_first_report": periods,
+            "wave_error": _wave_error(soil, H, first_tv, alpha, zeta, S, period, swings),
+            "wave_estimate": "modal" if swings is not None else "closed form",
             "drag_lag_error": LAG * S / (soil.drag_rate() * t_r),
             "tolerance": TOLERANCE, "visible": VISIBLE, "Pi_S_min": PI_MIN,
-            "criterion": "wave error r^(t_r / T_d) (r the decay per damped period T_d of "
-                         "the scaled slowest wave's mode, local or fast-part damping) and "
-                         "drag lag "
+            "criterion": "wave error (the swings of the undrained modes the load excites, "
+                         "each decayed under the local or fast-part damping; without them "
+                         "r^(t_r / T_d) of the slowest wave's mode) and drag lag "
                          "2 S / (lambda t_r) at the earliest report time t_r, in units of q"}
 
 
 def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float,
-                period: float = math.nan) -> float:
+                period: float = math.nan, swings=None) -> float:
     """The largest S whose two inertia errors stay within TOLERANCE (module docstring);
     arguments as :func:`regime`'s."""
     r, stretch = decay(alpha, zeta)
@@ -172,21 +198,38 @@ def auto_factor(soil, H: float, first_tv: float, alpha: float, zeta: float,
                          "-mpm_damping > 0), without which the undrained wave does not decay; "
                          "give a factor S")
     T_w, T_c, t_r = _times(soil, H, first_tv, period)
-    periods = math.log(1 / TOLERANCE) / math.log(1 / r)
-    wave = (t_r / (T_w * stretch * periods)) ** 2   # t_r is `periods` periods
+    if swings is None:
+        periods = math.log(1 / TOLERANCE) / math.log(1 / r)
+        wave = (t_r / (T_w * stretch * periods)) ** 2   # t_r is `periods` periods
+    else:
+        wave = _largest_within(lambda S: _wave_error(soil, H, first_tv, alpha, zeta, S,
+                                                     period, swings))
     drag = TOLERANCE * soil.drag_rate() * t_r / LAG
     floor = (T_c / T_w / PI_MIN) ** 2
     return float(f"{min(wave, drag, floor):.3g}")   # 3 digits: the same on every rank count
 
 
+def _largest_within(error, lo: float = 1e-12, hi: float = 1e12) -> float:
+    """The largest S in [lo, hi] with error(S) <= TOLERANCE (error grows with S: slower
+    waves have had fewer periods), by bisection in log S to 0.1 %."""
+    if error(hi) <= TOLERANCE:
+        return hi
+    if error(lo) > TOLERANCE:
+        return lo
+    while hi / lo > 1.001:
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if error(mid) <= TOLERANCE else (lo, mid)
+    return lo
+
+
 def scaling(choice: str, soil, H: float, first_tv: float, alpha: float, zeta: float,
-            period: float = math.nan) -> float:
+            period: float = math.nan, swings=None) -> float:
     """The factor S of ``-mpm_mass_scaling`` ``choice`` (none: 1; auto: :func:`auto_factor`
     with the other arguments; else the number)."""
     if choice == "none":
         return 1.0
     if choice == "auto":
-        return auto_factor(soil, H, first_tv, alpha, zeta, period)
+        return auto_factor(soil, H, first_tv, alpha, zeta, period, swings)
     return float(choice)
 
 
@@ -253,7 +296,7 @@ def check_feasible(req, scheme, soil, body):
     first_tv = min(req.Tv_report)
     if scheme.mass_scaling_choice != "auto" and decay(scheme.damping, scheme.fast_damping)[0] < 1:
         S_auto = auto_factor(soil, body.height, first_tv, scheme.damping,
-                             scheme.fast_damping, scheme.wave_period)
+                             scheme.fast_damping, scheme.wave_period, scheme.swings)
         ways.append((("-mpm_drag implicit " if drag == "explicit" else "")
                      + f"-mpm_mass_scaling auto (S = {S_auto:.3g})", steps("implicit", S_auto)))
     if not any(n <= MAX_STEPS for _, n in ways):

@@ -13,7 +13,7 @@ FLIP fraction: what the step, the stability analysis and the summary read.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from ..common.errors import InputError
 from . import inertia
@@ -72,6 +72,8 @@ class Scheme:
     flip: float = 1.0
     mass_scaling_choice: str = "none"
     wave_period: float = math.nan
+    # The undrained modes the load excites (waves.Swings; None: the closed-form estimate).
+    swings: object = field(default=None, compare=False, repr=False)
 
     @classmethod
     def resolve(cls, element: str, choices: dict, S: float = 1.0, **terms) -> "Scheme":
@@ -96,16 +98,17 @@ class Scheme:
 
     @classmethod
     def from_options(cls, p, soil, first_report_tv: float,
-                     wave_period: float = math.nan) -> "Scheme":
+                     wave_period: float = math.nan, swings=None) -> "Scheme":
         """The scheme of the ``-mpm_`` options ``p`` for ``soil`` whose slowest wave has
         the period ``wave_period`` (s; NaN: a column's 4H/c1); ``auto`` mass scaling is
         judged at the earliest report time ``first_report_tv`` (T_v)."""
         S = inertia.scaling(p.mass_scaling, soil, p.size[1], first_report_tv, p.damping,
-                            p.fast_damping, wave_period)
+                            p.fast_damping, wave_period, swings)
         return cls.resolve(p.element, {k: getattr(p, k) for k in AUTO_KEYS}, S,
                            drag=p.drag, damping=p.damping, bulk_viscosity=p.bulk_viscosity,
                            fast_damping=p.fast_damping, flip=p.flip,
-                           mass_scaling_choice=str(p.mass_scaling), wave_period=wave_period)
+                           mass_scaling_choice=str(p.mass_scaling), wave_period=wave_period,
+                           swings=swings)
 
     def with_mass_scaling(self, S: float) -> "Scheme":
         """The same scheme with the factor S (a restart keeps the one its run began with)."""

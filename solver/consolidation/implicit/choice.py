@@ -121,7 +121,8 @@ def choose(req: Request, soil, body, scheme, refs, isochrones=()) -> tuple:
         return "explicit", (f"Scheme: explicit (-mpm_scheme auto: -mpm_{given[0]} is an "
                             "option of the explicit step)")
     reg = inertia.regime(soil, body.height, min(req.Tv_report), scheme.damping,
-                         scheme.fast_damping, scheme.mass_scaling, scheme.wave_period)
+                         scheme.fast_damping, scheme.mass_scaling, scheme.wave_period,
+                         scheme.swings)
     error = max(reg["wave_error"], reg["drag_lag_error"])
     work = costs(req, soil, body, scheme, refs, isochrones)
     explicit_s, implicit_s = work["explicit_s"], work["implicit_s"]
