@@ -25,7 +25,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 SOLVER = REPO / "solver"
-ROOMS = ("common", "model", "references", "io", "run", "modal", "stepping", "eigen",
+ROOMS = ("common", "model", "materials", "references", "io", "run", "modal", "stepping", "eigen",
          "consolidation.implicit", "consolidation", "dynamic", "studies")
 CLI = "__main__"
 DRIVERS = ("eigen.driver", "consolidation.driver", "dynamic.driver")

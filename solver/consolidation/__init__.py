@@ -17,7 +17,7 @@ what it reports and the references set beside it. The explicit step is one of th
 - ``implicit/``: the implicit quasi-static scheme and the choice between the schemes (its
   own room, before this one).
 
-May import: consolidation.implicit, eigen, stepping, modal, run, io, references, model,
+May import: consolidation.implicit, eigen, stepping, modal, run, io, references, materials, model,
 common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,

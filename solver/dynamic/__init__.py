@@ -15,7 +15,7 @@ suddenly, stepped in time.
 - ``plots``: the figures.
 
 May import: consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
-references, model, common.
+references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

@@ -6,7 +6,7 @@ solvers (``solver.modal``), cross-checked and set beside their references.
   the cross-check of Jacobi and SLEPc, the table printed;
 - ``plots``: the mode-shape figure, and how a frequency is printed.
 
-May import: stepping, modal, run, io, references, model, common.
+May import: stepping, modal, run, io, references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

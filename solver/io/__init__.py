@@ -15,7 +15,7 @@ analyses: they call it.
 - ``records``: recorded base motions (a CSV of t and a, a PEER .AT2 file), read and checked;
 - ``checks``: the checks of the options' values (each a problem in words, or None).
 
-May import: references, model, common.
+May import: references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

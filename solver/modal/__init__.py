@@ -6,7 +6,7 @@ reports them; the consolidation run takes f1, the dynamic run f1 to f3).
 - ``frequency``: SLEPc's generalized eigensolve, the fundamental frequency f1 and the lowest
   frequencies of a body.
 
-May import: run, io, references, model, common.
+May import: run, io, references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

@@ -13,7 +13,7 @@ never builds on them (a reference the model were made of would check nothing).
 - ``waves``: plane compression waves of the v-w equations: the saturated column's fast and
   slow speeds, the undrained speed, the decay by drag.
 
-May import: model, common.
+May import: materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

@@ -5,7 +5,7 @@ checkpoints, signals, progress) and its cadence.
 - ``record``: the run record: ``summary.json``'s head and its failure path;
 - ``loop``: the time loop that drives a model, its ``Cadence``.
 
-May import: io, references, model, common.
+May import: io, references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

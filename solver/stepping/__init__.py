@@ -8,10 +8,11 @@ know nothing of the run around them (the plan, the loop, the reporting).
 - ``scheme``: the step's Scheme, ``auto`` resolved;
 - ``timestep``: critical time steps, and the step they allow;
 - ``inertia``: the inertia regime and mass scaling;
+- ``waves``: the undrained modes a sudden load sets swinging (the wave estimate);
 - ``onephase``: one phase on the nodes: the shaken body (the eigen model's K, lumped M,
   Rayleigh damping), a rigid or compliant base, periodic or absorbing sides.
 
-May import: modal, run, io, references, model, common.
+May import: modal, run, io, references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

@@ -6,7 +6,7 @@ results go, and their solver runs, each a ``python -m solver`` process.
   what the benchmark commands share (the machine, the report).
 
 May import: dynamic, consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
-references, model, common.
+references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

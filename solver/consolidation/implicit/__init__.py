@@ -6,7 +6,7 @@ knows nothing of the run around it (the plan, the reporting).
 - ``quasistatic``: the undrained start, TR-BDF2 on graded steps, MUMPS LU, the points' fields;
 - ``choice``: ``-mpm_scheme auto`` (which scheme, and why) and the options of each scheme.
 
-May import: eigen, stepping, modal, run, io, references, model, common.
+May import: eigen, stepping, modal, run, io, references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,
 consolidation.implicit, consolidation, dynamic, studies; then the command line

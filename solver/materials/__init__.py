@@ -1,0 +1,19 @@
+"""The materials room: the stress of a material point from its strain increment.
+
+Every model takes the points' strain increments and their state (stress and history
+variables) and returns the new stress, state and the algorithmic (consistent) tangent,
+vectorised over the points (:mod:`solver.materials.model`). Stress and strain carry four
+components, (xx, yy, zz, xy) for stress and (xx, yy, zz, 2 xy) for strain, tension
+positive (the effective stress of the consolidation analyses): plane strain passes
+d eps_zz = 0 and keeps sigma_zz, which plasticity needs; an axisymmetric soil test passes
+the radial strain as both xx and zz.
+
+- ``model``: the interface, the elastic law and the tangent by differences of the update;
+- ``mohr_coulomb``: Mohr-Coulomb (and Tresca, phi = 0 on total stress) with the exact
+  return in principal stresses onto the plane, either edge and the apex;
+- ``drucker_prager``: the cone matched to Mohr-Coulomb in plane strain;
+- ``cam_clay``: Modified Cam Clay with a pressure-dependent bulk modulus, implicit return;
+- ``soiltest``: one point driven through a laboratory test's path.
+
+May import: model, common.
+"""
