@@ -96,6 +96,9 @@ def _reference_words(p) -> set:
 
     if p.analysis == "eigen":
         return {"SLEPc", "layered rod" if len(p.layers) > 1 else "analytic rod"}
+    if p.analysis == "soiltest":
+        # One point against its test's closed form: Cam Clay's at the critical state.
+        return {"critical state"} if p.material == "mcc" else {"closed form"}
     if p.analysis == "dynamic":
         # Two phases: the saturated column's waves, then Terzaghi; one phase: the exact
         # response of the column on rock, unless Rayleigh damping's mass part rules it out.
@@ -122,11 +125,12 @@ def test_the_scenes_table_is_cases():
         assert analysis == p.analysis, name
         # A scene names its scheme, or auto picks the implicit one (test_implicit.py); the
         # dynamic analysis steps explicitly.
-        assert scheme == ("-" if p.analysis == "eigen" else "explicit"
+        assert scheme == ("-" if p.analysis in ("eigen", "soiltest") else "explicit"
                           if p.analysis == "dynamic" else
                           "implicit" if p.scheme == "auto" else p.scheme), name
         nx, ny = p.cells
-        assert mesh == f"{p.element.upper()} {nx} x {ny}, {p.ppc} x {p.ppc}", name
+        assert mesh == ("one point" if p.analysis == "soiltest" else
+                        f"{p.element.upper()} {nx} x {ny}, {p.ppc} x {p.ppc}"), name
         assert len(what.split()) >= 4, name
         for word in _reference_words(p):
             assert word in reference, f"{name}: the reference should name {word!r}"

@@ -27,8 +27,8 @@ from ..common.errors import InputError
 from . import checks
 from .scenefile import PREFIX, pairs as file_pairs
 
-EIGEN, CONSOLIDATION, DYNAMIC = "eigen", "consolidation", "dynamic"
-ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC)
+EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST = "eigen", "consolidation", "dynamic", "soiltest"
+ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST)
 BOTH = (EIGEN, CONSOLIDATION)
 MOVING = (CONSOLIDATION, DYNAMIC)       # the analyses that step in time
 BC_CHOICES = ("none", "x", "y", "xy")
@@ -49,7 +49,8 @@ class Option:
 
 SPEC = [
     Option("analysis", "str", EIGEN, "what to compute: eigen (frequencies and modes), "
-           "consolidation, dynamic (the body shaken at its base or loaded suddenly, in time)",
+           "consolidation, dynamic (the body shaken at its base or loaded suddenly, in time), "
+           "soiltest (one material point through a laboratory test)",
            choices=ANALYSES),
     Option("element", "str", "q4", "background cell: q4 (bilinear), q8 (serendipity), "
            "q9 (Lagrange)", choices=("q4", "q8", "q9")),
@@ -259,6 +260,38 @@ SPEC = [
            "histories (m); the surface and the base always", (DYNAMIC,), checks.all_nonnegative),
     Option("record_dt", "float", 0.005, "time between recorded samples (s; the time step "
            "is a divisor of it)", (DYNAMIC,), checks.positive),
+    # -- materials and soil tests --------------------------------------------------------
+    Option("material", "str", "elastic", "the soil's model: elastic, tresca (undrained "
+           "strength -mpm_cohesion on total stress), mohr-coulomb, drucker-prager (matched to "
+           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay)", (SOILTEST,),
+           choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")),
+    Option("cohesion", "float", 0.0, "cohesion c (Pa); tresca: the undrained strength c_u",
+           (SOILTEST,), checks.nonnegative),
+    Option("friction_angle", "float", 0.0, "friction angle phi (degrees)", (SOILTEST,),
+           lambda v: None if 0 <= v < 90 else "must lie in [0, 90)"),
+    Option("dilation_angle", "float", float("nan"), "dilation angle psi (degrees; default: "
+           "phi, associated flow)", (SOILTEST,),
+           lambda v: None if math.isnan(v) or 0 <= v < 90 else "must lie in [0, 90)"),
+    Option("mcc_M", "float", 1.0, "mcc: slope of the critical state line in p'-q",
+           (SOILTEST,), checks.positive),
+    Option("mcc_lambda", "float", 0.2, "mcc: slope of the normal compression line in "
+           "e-ln p'", (SOILTEST,), checks.positive),
+    Option("mcc_kappa", "float", 0.04, "mcc: slope of the swelling line in e-ln p'",
+           (SOILTEST,), checks.positive),
+    Option("void_ratio", "float", float("nan"), "mcc: the initial void ratio e0",
+           (SOILTEST,), checks.positive),
+    Option("mcc_ocr", "float", 1.0, "mcc: overconsolidation ratio p_c / p'_0", (SOILTEST,),
+           lambda v: None if v >= 1 else "must be at least 1"),
+    Option("soiltest", "str", "triaxial-drained", "the test: triaxial-drained, "
+           "triaxial-undrained, plane-strain, simple-shear, oedometer", (SOILTEST,),
+           choices=("triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear",
+                    "oedometer")),
+    Option("confining", "float", 100e3, "the isotropic effective stress the test starts "
+           "from and, drained, its cell pressure (Pa)", (SOILTEST,), checks.nonnegative),
+    Option("strain_end", "float", 0.1, "the axial (simple shear: shear) strain at the end, "
+           "compression positive", (SOILTEST,), checks.positive),
+    Option("strain_steps", "int", 500, "equal strain steps to the end", (SOILTEST,),
+           checks.at_least_one),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),

@@ -13,6 +13,7 @@ the radial strain as both xx and zz.
   return in principal stresses onto the plane, either edge and the apex;
 - ``drucker_prager``: the cone matched to Mohr-Coulomb in plane strain;
 - ``cam_clay``: Modified Cam Clay with a pressure-dependent bulk modulus, implicit return;
+- ``catalog``: a material from its name and parameters, checked;
 - ``soiltest``: one point driven through a laboratory test's path.
 
 May import: model, common.
