@@ -96,6 +96,8 @@ def _reference_words(p) -> set:
 
     if p.analysis == "eigen":
         return {"SLEPc", "layered rod" if len(p.layers) > 1 else "analytic rod"}
+    if p.analysis == "static":
+        return {"Prandtl"} if p.material == "tresca" else set()
     if p.analysis == "soiltest":
         # One point against its test's closed form: Cam Clay's at the critical state.
         return {"critical state"} if p.material == "mcc" else {"closed form"}
@@ -125,7 +127,7 @@ def test_the_scenes_table_is_cases():
         assert analysis == p.analysis, name
         # A scene names its scheme, or auto picks the implicit one (test_implicit.py); the
         # dynamic analysis steps explicitly.
-        assert scheme == ("-" if p.analysis in ("eigen", "soiltest") else "explicit"
+        assert scheme == ("-" if p.analysis in ("eigen", "soiltest", "static") else "explicit"
                           if p.analysis == "dynamic" else
                           "implicit" if p.scheme == "auto" else p.scheme), name
         nx, ny = p.cells

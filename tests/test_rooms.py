@@ -26,12 +26,14 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 SOLVER = REPO / "solver"
 ROOMS = ("common", "model", "materials", "references", "io", "run", "modal", "stepping", "eigen",
-         "consolidation.implicit", "consolidation", "dynamic", "soiltest", "studies")
+         "consolidation.implicit", "consolidation", "dynamic", "soiltest", "static",
+         "studies")
 CLI = "__main__"
-DRIVERS = ("eigen.driver", "consolidation.driver", "dynamic.driver", "soiltest.driver")
+DRIVERS = ("eigen.driver", "consolidation.driver", "dynamic.driver", "soiltest.driver",
+           "static.driver")
 # The analyses' rooms: none imports another's (what two of them share lives in a room before
 # them: the modal solvers, the engines that step, the run's frame).
-ANALYSES = ("eigen", "consolidation", "dynamic", "soiltest")
+ANALYSES = ("eigen", "consolidation", "dynamic", "soiltest", "static")
 
 
 def _name(path: Path) -> str:

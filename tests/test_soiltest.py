@@ -50,3 +50,11 @@ def test_bad_combinations_are_one_line_and_exit_2(cli, tmp_path, extra, message)
     assert res.returncode == 2, res.stderr
     assert message in res.stderr and len(res.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_outputs_are_in_the_readme(cli, tmp_path):
+    from conftest import check_readme_outputs
+
+    check_ok(cli(["-mpm_strain_steps", "20"], options_file="soiltest-mcc-undrained",
+                 out_dir=tmp_path))
+    check_readme_outputs(tmp_path)

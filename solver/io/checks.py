@@ -105,3 +105,8 @@ def figure_formats(v):
 
 def tolerance(v):
     return None if 0 < v < 1 else "must lie in (0, 1)"
+
+
+def angle(v):
+    """An angle in degrees in [0, 90), or NaN (not given)."""
+    return None if v != v or 0 <= v < 90 else "must lie in [0, 90)"

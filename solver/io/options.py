@@ -27,9 +27,11 @@ from ..common.errors import InputError
 from . import checks
 from .scenefile import PREFIX, pairs as file_pairs
 
-EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST = "eigen", "consolidation", "dynamic", "soiltest"
-ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST)
-BOTH = (EIGEN, CONSOLIDATION)
+EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST, STATIC = ("eigen", "consolidation", "dynamic",
+                                                   "soiltest", "static")
+ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST, STATIC)
+BOTH = (EIGEN, CONSOLIDATION, STATIC)      # the analyses of a body on supports
+MATERIAL = (SOILTEST, STATIC)              # the analyses that take -mpm_material
 MOVING = (CONSOLIDATION, DYNAMIC)       # the analyses that step in time
 BC_CHOICES = ("none", "x", "y", "xy")
 
@@ -50,7 +52,8 @@ class Option:
 SPEC = [
     Option("analysis", "str", EIGEN, "what to compute: eigen (frequencies and modes), "
            "consolidation, dynamic (the body shaken at its base or loaded suddenly, in time), "
-           "soiltest (one material point through a laboratory test)",
+           "soiltest (one material point through a laboratory test), static (a footing pushed "
+           "into a weightless body in load steps)",
            choices=ANALYSES),
     Option("element", "str", "q4", "background cell: q4 (bilinear), q8 (serendipity), "
            "q9 (Lagrange)", choices=("q4", "q8", "q9")),
@@ -188,9 +191,8 @@ SPEC = [
     Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
            "(0: PIC), or auto (1; 0.99 for hrz lumping with the corner pressure projection, "
            "whose pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), checks.fraction),
-    Option("lumping", "str", "auto", "lumped masses and drag, and the solid's transfer: rowsum, hrz, blended (the "
-           "solid's transfer in the liquid's blended basis N_hat both ways), auto (blended for "
-           "q8, else rowsum)",
+    Option("lumping", "str", "auto", "lumped masses and the solid's transfer: rowsum, hrz, "
+           "blended (the liquid's blended basis N_hat both ways), auto (blended for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz", "blended")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
            "points' initial positions: small strains, as the constant volumes and porosity "
@@ -260,38 +262,40 @@ SPEC = [
            "histories (m); the surface and the base always", (DYNAMIC,), checks.all_nonnegative),
     Option("record_dt", "float", 0.005, "time between recorded samples (s; the time step "
            "is a divisor of it)", (DYNAMIC,), checks.positive),
-    # -- materials and soil tests --------------------------------------------------------
+    # -- materials, soil tests and the static analysis ------------------------------------
     Option("material", "str", "elastic", "the soil's model: elastic, tresca (undrained "
-           "strength -mpm_cohesion on total stress), mohr-coulomb, drucker-prager (matched to "
-           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay)", (SOILTEST,),
+           "strength -mpm_cohesion, total stress), mohr-coulomb, drucker-prager (matched to "
+           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay)", MATERIAL,
            choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")),
     Option("cohesion", "float", 0.0, "cohesion c (Pa); tresca: the undrained strength c_u",
-           (SOILTEST,), checks.nonnegative),
-    Option("friction_angle", "float", 0.0, "friction angle phi (degrees)", (SOILTEST,),
-           lambda v: None if 0 <= v < 90 else "must lie in [0, 90)"),
+           MATERIAL, checks.nonnegative),
+    Option("friction_angle", "float", 0.0, "friction angle phi (degrees)", MATERIAL,
+           checks.angle),
     Option("dilation_angle", "float", float("nan"), "dilation angle psi (degrees; default: "
-           "phi, associated flow)", (SOILTEST,),
-           lambda v: None if math.isnan(v) or 0 <= v < 90 else "must lie in [0, 90)"),
-    Option("mcc_M", "float", 1.0, "mcc: slope of the critical state line in p'-q",
-           (SOILTEST,), checks.positive),
-    Option("mcc_lambda", "float", 0.2, "mcc: slope of the normal compression line in "
-           "e-ln p'", (SOILTEST,), checks.positive),
-    Option("mcc_kappa", "float", 0.04, "mcc: slope of the swelling line in e-ln p'",
-           (SOILTEST,), checks.positive),
-    Option("void_ratio", "float", float("nan"), "mcc: the initial void ratio e0",
-           (SOILTEST,), checks.positive),
-    Option("mcc_ocr", "float", 1.0, "mcc: overconsolidation ratio p_c / p'_0", (SOILTEST,),
+           "phi, associated flow)", MATERIAL, checks.angle),
+    Option("mcc_M", "float", 1.0, "mcc: critical state slope in p'-q", MATERIAL, checks.positive),
+    Option("mcc_lambda", "float", 0.2, "mcc: compression slope, e-ln p'", MATERIAL, checks.positive),
+    Option("mcc_kappa", "float", 0.04, "mcc: swelling slope in e-ln p'", MATERIAL, checks.positive),
+    Option("void_ratio", "float", float("nan"), "mcc: void ratio e0", MATERIAL, checks.positive),
+    Option("mcc_ocr", "float", 1.0, "mcc: overconsolidation ratio p_c / p'_0", MATERIAL,
            lambda v: None if v >= 1 else "must be at least 1"),
-    Option("soiltest", "str", "triaxial-drained", "the test: triaxial-drained, "
-           "triaxial-undrained, plane-strain, simple-shear, oedometer", (SOILTEST,),
+    Option("soiltest", "str", "triaxial-drained", "the soil test", (SOILTEST,),
            choices=("triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear",
                     "oedometer")),
-    Option("confining", "float", 100e3, "the isotropic effective stress the test starts "
-           "from and, drained, its cell pressure (Pa)", (SOILTEST,), checks.nonnegative),
-    Option("strain_end", "float", 0.1, "the axial (simple shear: shear) strain at the end, "
-           "compression positive", (SOILTEST,), checks.positive),
-    Option("strain_steps", "int", 500, "equal strain steps to the end", (SOILTEST,),
-           checks.at_least_one),
+    Option("confining", "float", 100e3, "the soil test's initial isotropic effective stress, "
+           "drained its cell pressure (Pa)", (SOILTEST,), checks.nonnegative),
+    Option("strain_end", "float", 0.1, "the soil test's axial (simple shear: shear) strain "
+           "at the end, compression positive", (SOILTEST,), checks.positive),
+    Option("strain_steps", "int", 500, "soil test steps", (SOILTEST,), checks.at_least_one),
+    Option("footing", "floats", (), "the rigid strip footing x0,x1 on the top (m; a half "
+           "model: 0,B/2 with rollers on x = 0)", (STATIC,), length=2),
+    Option("footing_interface", "str", "smooth", "smooth (the footing holds the vertical "
+           "displacement) or rough (both)", (STATIC,), choices=("smooth", "rough")),
+    Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)",
+           (STATIC,), checks.positive),
+    Option("load_steps", "int", 20, "equal settlement steps (each halved where Newton does "
+           "not converge)", (STATIC,), checks.at_least_one),
+    Option("bbar", "bool", True, "B-bar: each point's volume change its cell's", (STATIC,)),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),
@@ -303,7 +307,7 @@ SPEC = [
 _BY_NAME = {o.name: o for o in SPEC}
 # PETSc's own options of the implicit scheme's linear solver (KSP prefix mpm_): PETSc reads
 # them (-mpm_ksp_type, -mpm_pc_factor_mat_solver_type, -mpm_mat_mumps_icntl_14, ...).
-LINEAR_SOLVER = ("ksp_", "pc_", "mat_")
+LINEAR_SOLVER = ("ksp_", "pc_", "mat_", "snes_")
 # The options that only the explicit step reads, and those only the implicit scheme reads.
 EXPLICIT_ONLY = ("dt", "dt_safety", "stability_analysis", "target_error", "work_precision",
                  "allow_unstable", "damping", "bulk_viscosity", "fast_damping", "flip",

@@ -5,7 +5,7 @@ results go, and their solver runs, each a ``python -m solver`` process.
   ``--publish``), their solver runs (batches that keep what finished, fresh timed runs) and
   what the benchmark commands share (the machine, the report).
 
-May import: soiltest, dynamic, consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
+May import: static, soiltest, dynamic, consolidation, consolidation.implicit, eigen, stepping, modal, run, io,
 references, materials, model, common.
 
 The rooms, lowest first: common, model, references, io, run, modal, stepping, eigen,

@@ -1,0 +1,10 @@
+"""The static analysis (``-mpm_analysis static``): a body of a material of the materials room
+loaded in steps, a rigid footing pushed into it to failure, Newton on PETSc SNES.
+
+- ``problem``: the nonlinear system on the material points (residual, Jacobian, B-bar);
+- ``driver``: the analysis: the plan, the load steps, ``load_displacement.csv``, the figure
+  and the summary's ``static`` block.
+
+May import: soiltest, dynamic, consolidation, consolidation.implicit, eigen, stepping, modal,
+run, io, references, materials, model, common.
+"""

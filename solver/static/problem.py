@@ -1,0 +1,145 @@
+"""The static problem on the material points: f_int(u) = sum_p V B^T sigma_p = f_ext, small
+strain, every point's stress from the materials room (path-dependent: each load step
+updates the stresses of the last converged step by the step's strain increment).
+
+Newton on PETSc SNES (``-mpm_snes_*``; line search, KSP preonly with MUMPS LU by default,
+``-mpm_ksp_*``, ``-mpm_pc_*``) over the free DOFs: the held ones (the supports, the rigid
+footing's nodes and the nodes no point supports) carry their prescribed displacements. The
+Jacobian is sum V B^T D_alg B with the material's algorithmic tangent; with ``bbar`` the
+volumetric strain of each point is its cell's mean (B-bar, Hughes 1980: the in-plane
+volumetric rows replaced by the cell's volume-weighted mean, split equally between xx and
+yy so that eps_zz stays 0), which keeps near-incompressible and isochoric plastic flow
+from locking low-order cells.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..model import assembly
+
+PLANE = [0, 1, 3]          # the (xx, yy, xy) rows of the materials' four components
+
+
+def strain_operator(interp, volume, bbar: bool) -> np.ndarray:
+    """B (np, 3, 2 nen) mapping a point's cell DOFs to (xx, yy, 2 xy), B-bar when asked."""
+    B = assembly.strain_matrix(interp.dNdx)
+    if bbar and len(volume):
+        cx, cy = interp.cells
+        _, cell = np.unique(np.stack([cx, cy], axis=1), axis=0, return_inverse=True)
+        cell = cell.ravel()
+        vol = B[:, 0] + B[:, 1]
+        mean = np.zeros((cell.max() + 1, B.shape[2]))
+        np.add.at(mean, cell, vol * volume[:, None])
+        mean /= np.bincount(cell, weights=volume)[:, None]
+        shift = (mean[cell] - vol) / 2
+        B[:, 0] += shift
+        B[:, 1] += shift
+    return B
+
+
+class StaticProblem:
+    """The points' stresses and history at the last converged step, the displacement
+    there, and the residual and Jacobian of a step (as SNES calls them). ``held`` (owned
+    DOFs) are prescribed; ``loaded`` (owned y DOFs of the footing) carry the footing's
+    settlement, whose reaction :meth:`reaction` sums."""
+
+    def __init__(self, grid, points, material, held, loaded, bbar: bool):
+        self.grid, self.material, self.comm = grid, material, grid.comm
+        x, self.volume = points.get("x", "volume")
+        self.it = assembly.interpolation(grid, x)
+        self.B = strain_operator(self.it, self.volume, bbar)
+        self.dofs = np.ascontiguousarray(self.it.dofs, dtype=PETSc.IntType)
+        self.stress = np.zeros((len(self.volume), 4))
+        self.state = material.initial_state(self.stress)
+        self.trial = (self.stress, self.state)
+        da = grid.da
+        self.u, self.u_n, self.f = (da.createGlobalVec() for _ in range(3))
+        self.loc = da.createLocalVec()
+        self.K = da.createMat()
+        self.K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        held = held | ~self._supported()
+        self.held, self.loaded = held, loaded
+        start = self.u.getOwnershipRange()[0]
+        self.free = PETSc.IS().createGeneral(
+            (start + np.flatnonzero(~held)).astype(PETSc.IntType), comm=self.comm)
+        self.J = None
+
+    def _supported(self) -> np.ndarray:
+        """Owned DOFs some point's shape functions reach (a Q8 cell's centre node not)."""
+        self.loc.set(0.0)
+        arr = self.loc.getArray()
+        np.add.at(arr, self.dofs.ravel(), 1.0)
+        self.f.set(0.0)
+        self.grid.da.localToGlobal(self.loc, self.f, addv=PETSc.InsertMode.ADD_VALUES)
+        return self.f.getArray() > 0
+
+    # -- a step ---------------------------------------------------------------------------
+    def prescribe(self, settlement: float):
+        """The held DOFs' values for a footing settlement (m, downwards): the footing's y
+        DOFs at -settlement, the supports at 0."""
+        arr = self.u.getArray()
+        arr[self.held] = 0.0
+        arr[self.loaded] = -settlement
+
+    def _increment(self):
+        """Each point's strain increment (np, 4) from u - u_n."""
+        self.u.copy(self.f)
+        self.f.axpy(-1.0, self.u_n)
+        self.grid.da.globalToLocal(self.f, self.loc)
+        du = self.loc.getArray()[self.dofs]
+        d = np.zeros((len(du), 4))
+        d[:, PLANE] = np.einsum("pij,pj->pi", self.B, du)
+        return d
+
+    def _set_free(self, x):
+        sub = self.u.getSubVector(self.free)
+        x.copy(sub)
+        self.u.restoreSubVector(self.free, sub)
+
+    def residual(self, snes, x, F):
+        """F(x) = f_int over the free DOFs, the held ones at their prescribed values."""
+        self._set_free(x)
+        d = self._increment()
+        stress, state = self.material.update(self.stress, d, self.state)
+        self.trial = (stress, state)
+        forces = np.einsum("pij,pi->pj", self.B, stress[:, PLANE] * self.volume[:, None])
+        self.loc.set(0.0)
+        np.add.at(self.loc.getArray(), self.dofs, forces)
+        self.f.set(0.0)
+        self.grid.da.localToGlobal(self.loc, self.f, addv=PETSc.InsertMode.ADD_VALUES)
+        sub = self.f.getSubVector(self.free)
+        sub.copy(F)
+        self.f.restoreSubVector(self.free, sub)
+
+    def jacobian(self, snes, x, J, P):
+        """sum V B^T D_alg B over the free DOFs."""
+        from ..materials.model import tangent
+
+        self._set_free(x)
+        d = self._increment()
+        D = tangent(self.material, self.stress, d, self.state)[:, PLANE][:, :, PLANE]
+        blocks = np.einsum("pki,pkl,plj->pij", self.B, D, self.B) * self.volume[:, None, None]
+        self.K.zeroEntries()
+        if len(blocks):
+            self.K.setValuesLocalRCV(self.dofs, self.dofs, np.ascontiguousarray(blocks),
+                                     addv=PETSc.InsertMode.ADD_VALUES)
+        self.K.assemble()
+        self.K.createSubMatrix(self.free, self.free, submat=J)
+
+    def commit(self):
+        """The step converged: its stresses, history and displacement are the new start."""
+        self.stress, self.state = self.trial
+        self.u.copy(self.u_n)
+
+    def reaction(self) -> float:
+        """The footing's downward force (N per m depth): minus the internal forces' y
+        components summed over its nodes (collective)."""
+        local = -float(np.sum(self.f.getArray()[self.loaded]))
+        return self.comm.tompi4py().allreduce(local)
+
+    def destroy(self):
+        for obj in (self.u, self.u_n, self.f, self.loc, self.K, self.free, self.J):
+            if obj is not None:
+                obj.destroy()
