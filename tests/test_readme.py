@@ -97,7 +97,7 @@ def _reference_words(p) -> set:
     if p.analysis == "eigen":
         return {"SLEPc", "layered rod" if len(p.layers) > 1 else "analytic rod"}
     if p.analysis == "static":
-        return {"Prandtl"} if p.material == "tresca" else set()
+        return {"Prandtl"} if p.material == "tresca" else {"Prandtl-Reissner"}
     if p.analysis == "soiltest":
         # One point against its test's closed form: Cam Clay's at the critical state.
         return {"critical state"} if p.material == "mcc" else {"closed form"}

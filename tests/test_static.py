@@ -12,23 +12,42 @@ from conftest import check_ok
 PRANDTL = (2 + math.pi) * 10e3
 
 
+Q4 = ["-mpm_element", "q4", "-mpm_ppc", "2"]
+MC = ["-mpm_material", "mohr-coulomb", "-mpm_friction_angle", "30", "-mpm_nu", "0.3",
+      "-mpm_footing_settlement", "0.1"]
+
+
 def _footing(cli, out, cells, *extra, ranks=1):
     return check_ok(cli(["-mpm_cells", cells, "-mpm_figures", "0", *extra],
                         options_file="footing-tresca", out_dir=out, ranks=ranks,
                         timeout=600))["static"]
 
 
+def test_q9_footings_converge_to_prandtl(cli, tmp_path):
+    """The scenes' Q9 cells with B-bar (a linear volumetric strain per cell): the smooth
+    footing on Tresca soil +3.7 % and +1.8 % of (2 + pi) c_u on 8 x 4 and 16 x 8 cells
+    (+1.0 % on 32 x 16), on weightless c-phi soil +7.2 % and +5.1 % of Prandtl-Reissner's
+    N_c c (+2.9 % on 32 x 16: docs/studies.md)."""
+    errors = {}
+    for name, extra in (("tresca", []), ("mc", MC)):
+        errors[name] = [_footing(cli, tmp_path / f"{name}{c}", c, *extra)["error_pct"]
+                        for c in ("8,4", "16,8")]
+    assert 0 < errors["tresca"][1] < errors["tresca"][0] < 5, errors
+    assert errors["tresca"][1] < 3, errors
+    assert 0 < errors["mc"][1] < errors["mc"][0] < 10, errors
+
+
 def test_tresca_footing_converges_to_prandtl_with_bbar_and_locks_without(cli, tmp_path):
     """B-bar: +13.8 % and +7.0 % of (2 + pi) c_u on 16 x 8 and 32 x 16 Q4 cells (first
     order: the error halves with the cell; +3.6 % on 64 x 32, docs/studies.md); without it
     the nearly incompressible cells lock, +250 % on 16 x 8."""
-    coarse = _footing(cli, tmp_path / "c", "16,8")
-    fine = _footing(cli, tmp_path / "f", "32,16")
+    coarse = _footing(cli, tmp_path / "c", "16,8", *Q4)
+    fine = _footing(cli, tmp_path / "f", "32,16", *Q4)
     assert coarse["reference"] == "Prandtl (2 + pi) c_u"
     assert coarse["reference_pa"] == pytest.approx(PRANDTL, rel=1e-12)
     e1, e2 = coarse["error_pct"], fine["error_pct"]
     assert 0 < e2 < e1 < 15 and 1.6 < e1 / e2 < 2.5, (e1, e2)
-    locked = _footing(cli, tmp_path / "l", "16,8", "-mpm_bbar", "0")
+    locked = _footing(cli, tmp_path / "l", "16,8", *Q4, "-mpm_bbar", "0")
     assert locked["error_pct"] > 100
 
 
@@ -36,7 +55,7 @@ def test_newton_converges_quadratically(cli, tmp_path):
     """Each step's last Newton iteration squares the relative residual (up to a constant):
     the material's algorithmic tangent is the Jacobian of its return (measured: 1.3e-7, then
     1.1e-12; before the plastic zone settles an iteration may gain less)."""
-    s = _footing(cli, tmp_path, "16,8")
+    s = _footing(cli, tmp_path, "16,8", *Q4)
     checked = 0
     for r in s["newton_residuals"]:
         e = np.asarray(r) / r[0]
@@ -49,8 +68,8 @@ def test_newton_converges_quadratically(cli, tmp_path):
 
 @pytest.mark.mpi(2)
 def test_two_ranks_give_one_ranks_capacity(cli, tmp_path):
-    one = _footing(cli, tmp_path / "one", "16,8")
-    two = _footing(cli, tmp_path / "two", "16,8", ranks=2)
+    one = _footing(cli, tmp_path / "one", "16,8", *Q4)
+    two = _footing(cli, tmp_path / "two", "16,8", *Q4, ranks=2)
     assert two["bearing_capacity_pa"] == pytest.approx(one["bearing_capacity_pa"], rel=1e-8)
 
 

@@ -72,9 +72,18 @@ class StaticPlan:
                                    p.figures, p.figure_format), provenance.options(p))
 
     def reference(self) -> tuple:
-        """(the reference bearing capacity (Pa), its name), or (NaN, None)."""
+        """(the reference bearing capacity (Pa), its name), or (NaN, None): Prandtl's
+        (2 + pi) c_u on Tresca soil; Prandtl-Reissner's N_c c on weightless c-phi soil under
+        associated flow (N_c = (N_q - 1) cot phi, N_q = e^(pi tan phi) tan^2(45 + phi/2);
+        Drucker-Prager's plane-strain match has Mohr-Coulomb's collapse loads)."""
+        m = self.material
         if self.material_name == "tresca":
             return (2 + math.pi) * self.cohesion, "Prandtl (2 + pi) c_u"
+        if self.material_name in ("mohr-coulomb", "drucker-prager") and m.phi > 0 \
+                and m.psi == m.phi and m.cohesion > 0:
+            t = math.tan(math.radians(m.phi))
+            N_q = math.exp(math.pi * t) * math.tan(math.radians(45 + m.phi / 2)) ** 2
+            return (N_q - 1) / t * m.cohesion, f"Prandtl-Reissner N_c c (N_c {(N_q - 1) / t:.4g})"
         return math.nan, None
 
 
