@@ -52,18 +52,18 @@ def test_tresca_footing_converges_to_prandtl_with_bbar_and_locks_without(cli, tm
 
 
 def test_newton_converges_quadratically(cli, tmp_path):
-    """Each step's last Newton iteration squares the relative residual (up to a constant):
-    the material's algorithmic tangent is the Jacobian of its return (measured: 1.3e-7, then
-    1.1e-12; before the plastic zone settles an iteration may gain less)."""
+    """Newton's order, log(e_k+1 / e_k) / log(e_k / e_k-1) over the relative residuals of
+    each step above round-off (1e-9 of the step's first), is about 2: the material's
+    algorithmic tangent is the Jacobian of its return (measured: 4.7e-3, 3.9e-4, 1.3e-6,
+    order 2.3; a median of 1.7 to 2 over the steps)."""
     s = _footing(cli, tmp_path, "16,8", *Q4)
-    checked = 0
+    orders = []
     for r in s["newton_residuals"]:
         e = np.asarray(r) / r[0]
-        # The last iteration: from below 1e-5 to within 1e3 e^2 (or round-off, 1e-14).
-        if len(e) > 2 and e[-2] < 1e-5:
-            assert e[-1] < max(1e3 * e[-2] ** 2, 1e-14), e
-            checked += 1
-    assert checked >= 10
+        for k in range(1, len(e) - 1):
+            if e[k + 1] > 1e-9 and e[k] < 0.1:
+                orders.append(np.log(e[k + 1] / e[k]) / np.log(e[k] / e[k - 1]))
+    assert len(orders) >= 5 and np.median(orders) > 1.5, orders
 
 
 @pytest.mark.mpi(2)
@@ -89,3 +89,12 @@ def test_outputs_are_in_the_readme(cli, tmp_path):
     check_ok(cli(["-mpm_cells", "8,4", "-mpm_load_steps", "4"], options_file="footing-tresca",
                  out_dir=tmp_path))
     check_readme_outputs(tmp_path)
+
+
+def test_the_benchmark_grid_holds_the_points_it_is_asked():
+    from conftest import script_module
+
+    cells_for = script_module("static_benchmark").cells_for
+    for points in (25000, 100000):
+        nx, ny = cells_for(points)
+        assert nx == 2 * ny and points <= 9 * nx * ny < 1.1 * points

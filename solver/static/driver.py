@@ -134,10 +134,10 @@ def _analysis(plan, comm, record, stack) -> None:
                     comm=comm)
     record.enter("stepping")
     curve, residuals = [(0.0, 0.0)], []
-    s, ds = 0.0, plan.settlement / plan.steps
+    s, ds, last = 0.0, plan.settlement / plan.steps, 0.0
     while s < plan.settlement * (1 - 1e-12):
         step = min(ds, plan.settlement - s)
-        its = _step(newton, problem, s + step)
+        its = _step(newton, problem, s + step, step / last if last else 0.0)
         if its is None:
             ds /= 2
             if ds < plan.settlement / plan.steps / 2 ** CUTS:
@@ -145,7 +145,7 @@ def _analysis(plan, comm, record, stack) -> None:
                                      f"{s + step:.4g} m, even with steps {2 ** CUTS} times "
                                      "shorter (-mpm_snes_*, -mpm_load_steps)")
             continue
-        s += step
+        s, last = s + step, step
         residuals.append(its)
         record.steps = len(residuals)
         curve.append((s, problem.reaction() / width))
@@ -189,14 +189,16 @@ def _pattern(problem):
     return problem.K.createSubMatrix(problem.free, problem.free)
 
 
-def _step(newton, problem, settlement):
-    """Newton to the settlement (m): its residual norms (the first before any iteration),
+def _step(newton, problem, settlement, ratio):
+    """Newton to the settlement (m) from the last step's increment times ``ratio`` (this
+    step's length over the last's): its residual norms (the first before any iteration),
     or None where it did not converge."""
     snes, x = newton
+    problem.predict(ratio)
     problem.prescribe(settlement)
-    sub = problem.u_n.getSubVector(problem.free)
+    sub = problem.u.getSubVector(problem.free)
     sub.copy(x)
-    problem.u_n.restoreSubVector(problem.free, sub)
+    problem.u.restoreSubVector(problem.free, sub)
     snes.solve(None, x)
     if snes.getConvergedReason() <= 0:
         problem.u_n.copy(problem.u)

@@ -70,7 +70,8 @@ class StaticProblem:
         self.state = material.initial_state(self.stress)
         self.trial = (self.stress, self.state)
         da = grid.da
-        self.u, self.u_n, self.f = (da.createGlobalVec() for _ in range(3))
+        self.u, self.u_n, self.f, self.du = (da.createGlobalVec() for _ in range(4))
+        self.du.set(0.0)
         self.loc = da.createLocalVec()
         self.K = da.createMat()
         self.K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
@@ -120,8 +121,8 @@ class StaticProblem:
         stress, state = self.material.update(self.stress, d, self.state)
         self.trial = (stress, state)
         forces = np.einsum("pij,pi->pj", self.B, stress[:, PLANE] * self.volume[:, None])
-        self.loc.set(0.0)
-        np.add.at(self.loc.getArray(), self.dofs, forces)
+        arr = self.loc.getArray()
+        arr[:] = np.bincount(self.dofs.ravel(), weights=forces.ravel(), minlength=arr.size)
         self.f.set(0.0)
         self.grid.da.localToGlobal(self.loc, self.f, addv=PETSc.InsertMode.ADD_VALUES)
         sub = self.f.getSubVector(self.free)
@@ -135,7 +136,10 @@ class StaticProblem:
         self._set_free(x)
         d = self._increment()
         D = tangent(self.material, self.stress, d, self.state)[:, PLANE][:, :, PLANE]
-        blocks = np.einsum("pki,pkl,plj->pij", self.B, D, self.B) * self.volume[:, None, None]
+        # B^T (D B) V as two batched matrix products (BLAS; a three-operand einsum took
+        # most of a Jacobian's time).
+        blocks = np.matmul(self.B.transpose(0, 2, 1), np.matmul(D, self.B))
+        blocks *= self.volume[:, None, None]
         self.K.zeroEntries()
         if len(blocks):
             self.K.setValuesLocalRCV(self.dofs, self.dofs, np.ascontiguousarray(blocks),
@@ -144,9 +148,17 @@ class StaticProblem:
         self.K.createSubMatrix(self.free, self.free, submat=J)
 
     def commit(self):
-        """The step converged: its stresses, history and displacement are the new start."""
+        """The step converged: its stresses, history and displacement are the new start,
+        and its displacement increment the next step's predictor."""
         self.stress, self.state = self.trial
+        self.u.copy(self.du)
+        self.du.axpy(-1.0, self.u_n)
         self.u.copy(self.u_n)
+
+    def predict(self, ratio: float):
+        """u = u_n + ratio du (the last step's increment, scaled to this step's length)."""
+        self.u_n.copy(self.u)
+        self.u.axpy(ratio, self.du)
 
     def reaction(self) -> float:
         """The footing's downward force (N per m depth): minus the internal forces' y
@@ -155,6 +167,6 @@ class StaticProblem:
         return self.comm.tompi4py().allreduce(local)
 
     def destroy(self):
-        for obj in (self.u, self.u_n, self.f, self.loc, self.K, self.free, self.J):
+        for obj in (self.u, self.u_n, self.f, self.du, self.loc, self.K, self.free, self.J):
             if obj is not None:
                 obj.destroy()
