@@ -37,8 +37,9 @@ POINTS_PER_CELL = 9        # the scene's Q9 cells with 3 x 3 points
 
 
 def cells_for(points: int) -> tuple:
-    """The scene's grid (twice as wide as deep, as it is) with at least ``points`` points."""
-    ny = math.ceil(math.sqrt(points / POINTS_PER_CELL / 2))
+    """The scene's grid (twice as wide as deep, as it is) with at least ``points`` points,
+    the footing's edge (x = 0.5 m of 4 m) on a cell boundary: NX a multiple of 8."""
+    ny = 4 * math.ceil(math.sqrt(points / POINTS_PER_CELL / 2) / 4)
     return 2 * ny, ny
 
 

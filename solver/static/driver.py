@@ -2,7 +2,8 @@
 into a weightless body to ``-mpm_footing_settlement`` in ``-mpm_load_steps`` steps, Newton
 on SNES at each (steps cut in half and retried where it does not converge).
 
-Writes ``load_displacement.csv`` (``settlement_m``, ``pressure_pa``: the mean contact
+A halved step doubles again after a step that Newton takes in fewer than GROW_BELOW
+iterations, up to the asked length. Writes ``load_displacement.csv`` (``settlement_m``, ``pressure_pa``: the mean contact
 pressure, from the nodal internal forces under the footing), its figure with the reference
 where the scene has one, and the summary's ``static`` block: ``bearing_capacity_pa`` (the
 peak, or the plateau: the last step) and how it was picked, ``reference_pa`` and
@@ -31,6 +32,7 @@ from ..run.record import Record, guarded, owned
 from .problem import StaticProblem
 
 CUTS = 6            # halvings of a step before the run gives up
+GROW_BELOW = 6      # a step that converged in fewer Newton iterations doubles the next
 
 
 @dataclass(frozen=True)
@@ -147,12 +149,15 @@ def _analysis(plan, comm, record, stack) -> None:
             continue
         s, last = s + step, step
         residuals.append(its)
+        if len(its) <= GROW_BELOW:       # an easy step: back towards the asked length
+            ds = min(2 * ds, plan.settlement / plan.steps)
         record.steps = len(residuals)
         curve.append((s, problem.reaction() / width))
         PETSc.Sys.Print(f"  settlement {s:.5g} m: pressure {curve[-1][1]:.6g} Pa, "
                         f"{len(its) - 1} Newton iterations", comm=comm)
     record.enter("reporting")
     _report(plan, np.array(curve), residuals, points.n_global, comm, record)
+    _plastic_zone(plan, points, problem, comm, record)
     record.finish()
 
 
@@ -250,3 +255,34 @@ def _report(plan, curve, residuals, n_points, comm, record):
         ax.grid(alpha=0.3)
         record.files["figures"] = output.save_figure(
             fig, os.path.join(folder, "load_displacement.png"), formats=plan.outputs.formats)
+
+
+def _plastic_zone(plan, points, problem, comm, record):
+    """plastic_zone.png: every point coloured by its accumulated plastic multiplier (where
+    the soil yielded), the footing marked (points gathered on rank 0)."""
+    x = points.get("x")
+    eps = problem.state.get("eps_p", np.zeros(len(x)))
+    gathered = comm.tompi4py().gather((x, eps), root=0)
+    if comm.getRank() != 0 or not plan.outputs.figures:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = np.concatenate([g[0] for g in gathered])
+    eps = np.concatenate([g[1] for g in gathered])
+    W, H = plan.body.size
+    fig, ax = plt.subplots(figsize=(8, 8 * H / W + 0.8))
+    shown = ax.scatter(x[:, 0], x[:, 1], c=eps, s=4, cmap="magma_r",
+                       vmin=0, vmax=max(float(eps.max()), 1e-12))
+    ax.plot(plan.footing, [H, H], "c-", lw=4, label="footing")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"plastic zone at the last step ({plan.material_name})")
+    fig.colorbar(shown, ax=ax, label="accumulated plastic multiplier (-)", shrink=0.8)
+    ax.legend(loc="lower right")
+    record.files["plastic_zone"] = output.save_figure(
+        fig, os.path.join(plan.outputs.folder, "plastic_zone.png"),
+        formats=plan.outputs.formats)
