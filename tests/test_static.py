@@ -98,3 +98,17 @@ def test_the_benchmark_grid_holds_the_points_it_is_asked():
     for points in (25000, 100000):
         nx, ny = cells_for(points)
         assert nx == 2 * ny and nx % 8 == 0 and points <= 9 * nx * ny < 1.2 * points
+
+
+def test_newton_giving_up_exits_3_with_the_converged_steps_written(cli, tmp_path):
+    """Newton allowed two iterations: the elastic first steps converge, the plastic ones are
+    halved six times and the run gives up (exit 3, one line), its converged steps in
+    load_displacement.csv and the summary not completed."""
+    res = cli(["-mpm_cells", "8,4", *Q4, "-mpm_snes_max_it", "2", "-mpm_figures", "0"],
+              options_file="footing-tresca", out_dir=tmp_path)
+    assert res.returncode == 3, res.stderr
+    assert "Newton did not converge" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert res.summary["completed"] is False
+    table = np.loadtxt(tmp_path / "load_displacement.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert table[0, 0] == 0 and len(table) >= 2 and np.all(np.diff(table[:, 0]) > 0)

@@ -126,8 +126,8 @@ def _analysis(plan, comm, record, stack) -> None:
     problem = StaticProblem(grid, points, plan.material, held, loaded, plan.bbar)
     stack.callback(problem.destroy)
     newton = _newton(comm, problem)
-    stack.callback(newton[0].destroy)
-    stack.callback(newton[1].destroy)
+    for obj in newton:
+        stack.callback(obj.destroy)
     width = plan.footing[1] - plan.footing[0]
     PETSc.Sys.Print(f"Static analysis: a {'rough' if plan.rough else 'smooth'} footing "
                     f"{plan.footing[0]:g} to {plan.footing[1]:g} m on {plan.material_name}, "
@@ -143,6 +143,8 @@ def _analysis(plan, comm, record, stack) -> None:
         if its is None:
             ds /= 2
             if ds < plan.settlement / plan.steps / 2 ** CUTS:
+                # The converged steps are written before the run gives up (exit 3).
+                _report(plan, np.array(curve), residuals, points.n_global, comm, record)
                 raise NumericalError(f"static: Newton did not converge at settlement "
                                      f"{s + step:.4g} m, even with steps {2 ** CUTS} times "
                                      "shorter (-mpm_snes_*, -mpm_load_steps)")
@@ -162,7 +164,8 @@ def _analysis(plan, comm, record, stack) -> None:
 
 
 def _newton(comm, problem) -> tuple:
-    """(SNES newtonls with MUMPS LU, its options under -mpm_; the solution vector)."""
+    """(SNES newtonls with MUMPS LU, its options under -mpm_; the solution vector; a work
+    vector)."""
     snes = PETSc.SNES().create(comm)
     snes.setOptionsPrefix("mpm_")
     snes.setType("newtonls")
@@ -180,7 +183,7 @@ def _newton(comm, problem) -> tuple:
     pc.setType("lu")
     pc.setFactorSolverType("mumps")
     snes.setFromOptions()
-    return snes, F.duplicate()
+    return snes, F.duplicate(), F.duplicate()
 
 
 def _pattern(problem):
@@ -198,7 +201,7 @@ def _step(newton, problem, settlement, ratio):
     """Newton to the settlement (m) from the last step's increment times ``ratio`` (this
     step's length over the last's): its residual norms (the first before any iteration),
     or None where it did not converge."""
-    snes, x = newton
+    snes, x, work = newton
     problem.predict(ratio)
     problem.prescribe(settlement)
     sub = problem.u.getSubVector(problem.free)
@@ -208,7 +211,7 @@ def _step(newton, problem, settlement, ratio):
     if snes.getConvergedReason() <= 0:
         problem.u_n.copy(problem.u)
         return None
-    problem.residual(snes, x, x.duplicate())
+    problem.residual(snes, x, work)          # the stresses of the converged x
     problem.commit()
     return [float(r) for r in snes.getConvergenceHistory()[0]]
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from ..materials.model import tangent
 from ..model import assembly
 
 PLANE = [0, 1, 3]          # the (xx, yy, xy) rows of the materials' four components
@@ -131,8 +132,6 @@ class StaticProblem:
 
     def jacobian(self, snes, x, J, P):
         """sum V B^T D_alg B over the free DOFs."""
-        from ..materials.model import tangent
-
         self._set_free(x)
         d = self._increment()
         D = tangent(self.material, self.stress, d, self.state)[:, PLANE][:, :, PLANE]
