@@ -112,3 +112,19 @@ def test_newton_giving_up_exits_3_with_the_converged_steps_written(cli, tmp_path
     assert res.summary["completed"] is False
     table = np.loadtxt(tmp_path / "load_displacement.csv", delimiter=",", skiprows=1, ndmin=2)
     assert table[0, 0] == 0 and len(table) >= 2 and np.all(np.diff(table[:, 0]) > 0)
+
+
+def test_point_fields_open_as_a_series(cli, tmp_path):
+    """points.xdmf: one time per step (the settlement), the displacement at the points
+    under the footing its settlement, the plastic multiplier where the soil yielded."""
+    import meshio
+
+    s = check_ok(cli(["-mpm_cells", "8,4", *Q4, "-mpm_load_steps", "4", "-mpm_figures", "0"],
+                     options_file="footing-tresca", out_dir=tmp_path))
+    reader = meshio.xdmf.TimeSeriesReader(str(tmp_path / "points.xdmf"))
+    points, _ = reader.read_points_cells()
+    assert reader.num_steps == len(s["static"]["newton_iterations"])
+    t, data, _ = reader.read_data(reader.num_steps - 1)
+    assert t == pytest.approx(0.05)
+    assert data["displacement"][:, 1].min() == pytest.approx(-0.05, rel=0.2)
+    assert data["plastic_multiplier"].max() > 0 and set(np.unique(data["yielding"])) <= {0, 1}

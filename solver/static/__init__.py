@@ -2,8 +2,9 @@
 loaded in steps, a rigid footing pushed into it to failure, Newton on PETSc SNES.
 
 - ``problem``: the nonlinear system on the material points (residual, Jacobian, B-bar);
-- ``driver``: the analysis: the plan, the load steps, ``load_displacement.csv``, the figure
-  and the summary's ``static`` block.
+- ``driver``: the analysis: the plan and the load steps;
+- ``reporting``: what it writes: the summary's ``static`` block, ``load_displacement.csv``
+  and its figure, the plastic zone, the point fields for ParaView.
 
 May import: soiltest, dynamic, consolidation, consolidation.implicit, eigen, stepping, modal,
 run, io, references, materials, model, common.

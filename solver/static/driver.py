@@ -22,13 +22,14 @@ from petsc4py import PETSc
 
 from ..common import signals
 from ..common.errors import InputError, NumericalError
-from ..io import output, provenance
+from ..io import provenance
 from ..io.output import Outputs
 from ..materials import catalog
 from ..model.grid import Grid
 from ..model.points import place
 from ..model.scene import Body
 from ..run.record import Record, guarded, owned
+from . import reporting
 from .problem import StaticProblem
 
 CUTS = 6            # halvings of a step before the run gives up
@@ -134,6 +135,7 @@ def _analysis(plan, comm, record, stack) -> None:
                     f"{body.element.upper()} {body.cells[0]} x {body.cells[1]} cells, "
                     f"{points.n_global} points, B-bar {'on' if plan.bbar else 'off'}",
                     comm=comm)
+    series = reporting.FieldSeries(plan.outputs.folder, comm)
     record.enter("stepping")
     curve, residuals = [(0.0, 0.0)], []
     s, ds, last = 0.0, plan.settlement / plan.steps, 0.0
@@ -144,7 +146,8 @@ def _analysis(plan, comm, record, stack) -> None:
             ds /= 2
             if ds < plan.settlement / plan.steps / 2 ** CUTS:
                 # The converged steps are written before the run gives up (exit 3).
-                _report(plan, np.array(curve), residuals, points.n_global, comm, record)
+                reporting.report(plan, np.array(curve), residuals, points.n_global, comm,
+                                 record)
                 raise NumericalError(f"static: Newton did not converge at settlement "
                                      f"{s + step:.4g} m, even with steps {2 ** CUTS} times "
                                      "shorter (-mpm_snes_*, -mpm_load_steps)")
@@ -155,11 +158,14 @@ def _analysis(plan, comm, record, stack) -> None:
             ds = min(2 * ds, plan.settlement / plan.steps)
         record.steps = len(residuals)
         curve.append((s, problem.reaction() / width))
+        series.write(points, problem, len(residuals), s)
         PETSc.Sys.Print(f"  settlement {s:.5g} m: pressure {curve[-1][1]:.6g} Pa, "
                         f"{len(its) - 1} Newton iterations", comm=comm)
     record.enter("reporting")
-    _report(plan, np.array(curve), residuals, points.n_global, comm, record)
-    _plastic_zone(plan, points, problem, comm, record)
+    reporting.report(plan, np.array(curve), residuals, points.n_global, comm, record)
+    reporting.plastic_zone(plan, points, problem, comm, record)
+    if series.files():
+        record.files["fields"] = series.files()
     record.finish()
 
 
@@ -214,78 +220,3 @@ def _step(newton, problem, settlement, ratio):
     problem.residual(snes, x, work)          # the stresses of the converged x
     problem.commit()
     return [float(r) for r in snes.getConvergenceHistory()[0]]
-
-
-def _report(plan, curve, residuals, n_points, comm, record):
-    """The summary's static block, load_displacement.csv and its figure."""
-    pressure = curve[:, 1]
-    peak = int(np.argmax(pressure))
-    if pressure[peak] > pressure[-1] * 1.005:
-        capacity, how = float(pressure[peak]), "the peak"
-    else:
-        capacity, how = float(pressure[-1]), "the plateau (the last step)"
-    ref, name = plan.reference()
-    record.results.update({
-        "bearing_capacity_pa": capacity, "picked": how, "reference_pa": ref,
-        "reference": name, "error_pct": 100 * (capacity / ref - 1) if name else math.nan,
-        "n_points": n_points, "newton_iterations": [len(r) - 1 for r in residuals],
-        "newton_residuals": residuals,
-        "settlement_m": float(curve[-1, 0])})
-    PETSc.Sys.Print(f"Bearing capacity {capacity:.6g} Pa ({how})"
-                    + (f"; {name} = {ref:.6g} Pa: {100 * (capacity / ref - 1):+.2f} %"
-                       if name else ""), comm=comm)
-    if comm.getRank() != 0:
-        return
-    folder = plan.outputs.folder
-    os.makedirs(folder, exist_ok=True)
-    path = os.path.join(folder, "load_displacement.csv")
-    with output.atomic(path) as tmp:
-        np.savetxt(tmp, curve, delimiter=",", comments="", header="settlement_m,pressure_pa")
-    record.files["load_displacement"] = path
-    if plan.outputs.figures:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(6, 4))
-        ax.plot(1e3 * curve[:, 0], curve[:, 1] / 1e3, "o-", ms=3, label="material points")
-        if name:
-            ax.axhline(ref / 1e3, color="k", ls="--", label=name)
-        ax.set_xlabel("settlement (mm)")
-        ax.set_ylabel("mean contact pressure (kPa)")
-        ax.legend()
-        ax.grid(alpha=0.3)
-        record.files["figures"] = output.save_figure(
-            fig, os.path.join(folder, "load_displacement.png"), formats=plan.outputs.formats)
-
-
-def _plastic_zone(plan, points, problem, comm, record):
-    """plastic_zone.png: every point coloured by its accumulated plastic multiplier (where
-    the soil yielded), the footing marked (points gathered on rank 0)."""
-    x = points.get("x")
-    eps = problem.state.get("eps_p", np.zeros(len(x)))
-    gathered = comm.tompi4py().gather((x, eps), root=0)
-    if comm.getRank() != 0 or not plan.outputs.figures:
-        return
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    x = np.concatenate([g[0] for g in gathered])
-    eps = np.concatenate([g[1] for g in gathered])
-    W, H = plan.body.size
-    fig, ax = plt.subplots(figsize=(8, 8 * H / W + 0.8))
-    shown = ax.scatter(x[:, 0], x[:, 1], c=eps, s=4, cmap="magma_r",
-                       vmin=0, vmax=max(float(eps.max()), 1e-12))
-    ax.plot(plan.footing, [H, H], "c-", lw=4, label="footing")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(f"plastic zone at the last step ({plan.material_name})")
-    fig.colorbar(shown, ax=ax, label="accumulated plastic multiplier (-)", shrink=0.8)
-    ax.legend(loc="lower right")
-    record.files["plastic_zone"] = output.save_figure(
-        fig, os.path.join(plan.outputs.folder, "plastic_zone.png"),
-        formats=plan.outputs.formats)

@@ -159,6 +159,13 @@ class StaticProblem:
         self.u_n.copy(self.u)
         self.u.axpy(ratio, self.du)
 
+    def displacement_at_points(self) -> np.ndarray:
+        """The converged nodal displacement at the points, (np, 2) (m)."""
+        self.grid.da.globalToLocal(self.u_n, self.loc)
+        u = self.loc.getArray()[self.dofs]
+        return np.stack([np.sum(self.it.N * u[:, 0::2], axis=1),
+                         np.sum(self.it.N * u[:, 1::2], axis=1)], axis=1)
+
     def reaction(self) -> float:
         """The footing's downward force (N per m depth): minus the internal forces' y
         components summed over its nodes (collective)."""

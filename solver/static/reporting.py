@@ -1,0 +1,132 @@
+"""What the static analysis writes: the summary's ``static`` block and
+``load_displacement.csv`` with its figure (:func:`report`), the plastic zone
+(:func:`plastic_zone`) and the point fields after every step (:class:`FieldSeries`:
+``points.xdmf`` and ``points_<step>.h5`` for ParaView)."""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+from petsc4py import PETSc
+
+from ..io import output
+
+
+class FieldSeries:
+    """The points' fields after each converged step as an XDMF + HDF5 series (rank 0
+    writes; every rank gathers): positions (m), displacement (the nodal displacement at the
+    points, m; 3-vectors, z = 0), the effective stress components xx, yy, zz, xy (Pa, tension
+    positive), the accumulated plastic multiplier and whether the point yielded in the
+    step. The points keep their ranks and order (they do not move)."""
+
+    def __init__(self, folder, comm):
+        self.comm = comm
+        path = os.path.join(folder, "points.xdmf")
+        self.writer = output.XdmfSeries(path) if comm.getRank() == 0 else None
+
+    def files(self) -> list:
+        if self.writer is None or not self.writer.entries:
+            return []
+        folder = os.path.dirname(self.writer.path)
+        return [self.writer.path] + [os.path.join(folder, str(e[1]))
+                                     for e in self.writer.entries]
+
+    def write(self, points, problem, step: int, settlement: float):
+        """The fields after step ``step``, the footing at ``settlement`` (m): the series'
+        time (collective)."""
+        mpi = self.comm.tompi4py()
+        disp = problem.displacement_at_points()
+        local = {"x": points.get("x"), "u": disp, "stress": problem.stress,
+                 "eps_p": problem.state.get("eps_p", np.zeros(len(disp))),
+                 "plastic": problem.state["plastic"].astype(float)}
+        parts = {k: mpi.gather(v, root=0) for k, v in local.items()}
+        if self.writer is None:
+            return
+        whole = {k: np.concatenate(v) for k, v in parts.items()}
+
+        def with_z(a):
+            return np.column_stack([a, np.zeros(len(a))])
+
+        fields = {"displacement": lambda: with_z(whole["u"]),
+                  "plastic_multiplier": lambda: whole["eps_p"],
+                  "yielding": lambda: whole["plastic"]}
+        for k, name in enumerate(("xx", "yy", "zz", "xy")):
+            fields[f"effective_stress_{name}"] = (lambda k=k: whole["stress"][:, k].copy())
+        self.writer.write(step, settlement, whole["x"], fields)
+
+
+def report(plan, curve, residuals, n_points, comm, record):
+    """The summary's static block, load_displacement.csv and its figure."""
+    pressure = curve[:, 1]
+    peak = int(np.argmax(pressure))
+    if pressure[peak] > pressure[-1] * 1.005:
+        capacity, how = float(pressure[peak]), "the peak"
+    else:
+        capacity, how = float(pressure[-1]), "the plateau (the last step)"
+    ref, name = plan.reference()
+    record.results.update({
+        "bearing_capacity_pa": capacity, "picked": how, "reference_pa": ref,
+        "reference": name, "error_pct": 100 * (capacity / ref - 1) if name else math.nan,
+        "n_points": n_points, "newton_iterations": [len(r) - 1 for r in residuals],
+        "newton_residuals": residuals,
+        "settlement_m": float(curve[-1, 0])})
+    PETSc.Sys.Print(f"Bearing capacity {capacity:.6g} Pa ({how})"
+                    + (f"; {name} = {ref:.6g} Pa: {100 * (capacity / ref - 1):+.2f} %"
+                       if name else ""), comm=comm)
+    if comm.getRank() != 0:
+        return
+    folder = plan.outputs.folder
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "load_displacement.csv")
+    with output.atomic(path) as tmp:
+        np.savetxt(tmp, curve, delimiter=",", comments="", header="settlement_m,pressure_pa")
+    record.files["load_displacement"] = path
+    if plan.outputs.figures:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6, 4))
+        ax.plot(1e3 * curve[:, 0], curve[:, 1] / 1e3, "o-", ms=3, label="material points")
+        if name:
+            ax.axhline(ref / 1e3, color="k", ls="--", label=name)
+        ax.set_xlabel("settlement (mm)")
+        ax.set_ylabel("mean contact pressure (kPa)")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        record.files["figures"] = output.save_figure(
+            fig, os.path.join(folder, "load_displacement.png"), formats=plan.outputs.formats)
+
+
+def plastic_zone(plan, points, problem, comm, record):
+    """plastic_zone.png: every point coloured by its accumulated plastic multiplier (where
+    the soil yielded), the footing marked (points gathered on rank 0)."""
+    x = points.get("x")
+    eps = problem.state.get("eps_p", np.zeros(len(x)))
+    gathered = comm.tompi4py().gather((x, eps), root=0)
+    if comm.getRank() != 0 or not plan.outputs.figures:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = np.concatenate([g[0] for g in gathered])
+    eps = np.concatenate([g[1] for g in gathered])
+    W, H = plan.body.size
+    fig, ax = plt.subplots(figsize=(8, 8 * H / W + 0.8))
+    shown = ax.scatter(x[:, 0], x[:, 1], c=eps, s=4, cmap="magma_r",
+                       vmin=0, vmax=max(float(eps.max()), 1e-12))
+    ax.plot(plan.footing, [H, H], "c-", lw=4, label="footing")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"plastic zone at the last step ({plan.material_name})")
+    fig.colorbar(shown, ax=ax, label="accumulated plastic multiplier (-)", shrink=0.8)
+    ax.legend(loc="lower right")
+    record.files["plastic_zone"] = output.save_figure(
+        fig, os.path.join(plan.outputs.folder, "plastic_zone.png"),
+        formats=plan.outputs.formats)
