@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import XY, isotropic
+from .model import XY, Frictional
 
 
 def match(angle: float) -> tuple:
@@ -31,21 +31,11 @@ def match(angle: float) -> tuple:
 
 
 @dataclass(frozen=True)
-class DruckerPrager:
+class DruckerPrager(Frictional):
     """E (Pa), nu (-), cohesion c (Pa), friction and dilation angles phi, psi (degrees)."""
 
-    E: float
-    nu: float
-    cohesion: float
-    phi: float = 0.0
-    psi: float = 0.0
-
-    def initial_state(self, stress) -> dict:
-        return {"plastic": np.zeros(len(stress), dtype=bool),
-                "eps_p": np.zeros(len(stress))}
-
     def update(self, stress, d_strain, state):
-        trial = stress + d_strain @ isotropic(self.E, self.nu).T
+        trial = self.predictor(stress, d_strain)
         G = self.E / (2 * (1 + self.nu))
         K = self.E / (3 * (1 - 2 * self.nu))
         eta, xi = match(self.phi)

@@ -45,8 +45,28 @@ class Elastic:
     def initial_state(self, stress) -> dict:
         return {"plastic": np.zeros(len(stress), dtype=bool)}
 
+    def predictor(self, stress, d_strain) -> np.ndarray:
+        """The elastic trial stress (np, 4) (Pa) of the increments: what every return
+        starts from."""
+        return stress + d_strain @ isotropic(self.E, self.nu).T
+
     def update(self, stress, d_strain, state):
-        return stress + d_strain @ isotropic(self.E, self.nu).T, dict(state)
+        return self.predictor(stress, d_strain), dict(state)
+
+
+@dataclass(frozen=True)
+class Frictional(Elastic):
+    """What Mohr-Coulomb and Drucker-Prager share: elasticity (E, nu), cohesion c (Pa),
+    friction and dilation angles phi, psi (degrees), and the history of a point: whether
+    it yielded in the step and its accumulated plastic multiplier ``eps_p``."""
+
+    cohesion: float = 0.0
+    phi: float = 0.0
+    psi: float = 0.0
+
+    def initial_state(self, stress) -> dict:
+        return {"plastic": np.zeros(len(stress), dtype=bool),
+                "eps_p": np.zeros(len(stress))}
 
 
 def tangent(material, stress, d_strain, state, h: float = 1e-7) -> np.ndarray:

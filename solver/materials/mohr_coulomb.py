@@ -26,25 +26,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import from_principal, isotropic, principal
+from .model import Frictional, from_principal, principal
 
 
 @dataclass(frozen=True)
-class MohrCoulomb:
+class MohrCoulomb(Frictional):
     """E (Pa), nu (-), cohesion c (Pa), friction and dilation angles phi, psi (degrees)."""
 
-    E: float
-    nu: float
-    cohesion: float
-    phi: float = 0.0
-    psi: float = 0.0
-
-    def initial_state(self, stress) -> dict:
-        return {"plastic": np.zeros(len(stress), dtype=bool),
-                "eps_p": np.zeros(len(stress))}
-
     def update(self, stress, d_strain, state):
-        trial = stress + d_strain @ isotropic(self.E, self.nu).T
+        trial = self.predictor(stress, d_strain)
         s, theta, order = principal(trial)
         new, dgamma = self.principal_return(s)
         yielded = dgamma > 0
