@@ -138,10 +138,16 @@ def decay_rates(omega, alpha: float, zeta: float, w1: float) -> np.ndarray:
     = 0 (:func:`solver.stepping.inertia.decay`, which takes w = w1)."""
     omega = np.asarray(omega, dtype=float)
     rate = np.zeros_like(omega)
-    if zeta > 0:
-        for i, w in enumerate(omega):
-            roots = np.roots([1.0, w1 * (1 + 2 * zeta), w * w, w * w * w1])
-            rate[i] = -max(roots, key=lambda z: abs(z.imag)).real
+    if zeta > 0 and len(omega):
+        # Every mode's cubic at once, as the eigenvalues of its companion matrix (what
+        # np.roots solves, one polynomial a call).
+        C = np.zeros((len(omega), 3, 3))
+        C[:, 0] = np.stack([np.full_like(omega, -w1 * (1 + 2 * zeta)), -omega * omega,
+                            -omega * omega * w1], axis=1)
+        C[:, 1, 0] = C[:, 2, 1] = 1.0
+        roots = np.linalg.eigvals(C)
+        pair = np.take_along_axis(roots, np.argmax(np.abs(roots.imag), axis=1)[:, None], 1)
+        rate = -pair[:, 0].real
     if alpha > 0:
         rate += math.log((1 + alpha) / (1 - alpha)) * omega / (2 * math.pi)
     return rate
