@@ -215,8 +215,7 @@ def _step(newton, problem, settlement, ratio):
     problem.u.restoreSubVector(problem.free, sub)
     snes.solve(None, x)
     if snes.getConvergedReason() <= 0:
-        problem.u_n.copy(problem.u)
-        return None
+        return None                          # the next try predicts from u_n afresh
     problem.residual(snes, x, work)          # the stresses of the converged x
     problem.commit()
     return [float(r) for r in snes.getConvergenceHistory()[0]]

@@ -71,7 +71,10 @@ class StaticProblem:
         self.state = material.initial_state(self.stress)
         self.trial = (self.stress, self.state)
         da = grid.da
-        self.u, self.u_n, self.f, self.du = (da.createGlobalVec() for _ in range(4))
+        # u, the last converged u_n, the internal forces f (what the reaction sums), the last
+        # step's increment du (the predictor) and the step's increment u - u_n so far.
+        self.u, self.u_n, self.f, self.du, self.delta = (da.createGlobalVec()
+                                                         for _ in range(5))
         self.du.set(0.0)
         self.loc = da.createLocalVec()
         self.K = da.createMat()
@@ -102,9 +105,9 @@ class StaticProblem:
 
     def _increment(self):
         """Each point's strain increment (np, 4) from u - u_n."""
-        self.u.copy(self.f)
-        self.f.axpy(-1.0, self.u_n)
-        self.grid.da.globalToLocal(self.f, self.loc)
+        self.u.copy(self.delta)
+        self.delta.axpy(-1.0, self.u_n)
+        self.grid.da.globalToLocal(self.delta, self.loc)
         du = self.loc.getArray()[self.dofs]
         d = np.zeros((len(du), 4))
         d[:, PLANE] = np.einsum("pij,pj->pi", self.B, du)
@@ -173,6 +176,7 @@ class StaticProblem:
         return self.comm.tompi4py().allreduce(local)
 
     def destroy(self):
-        for obj in (self.u, self.u_n, self.f, self.du, self.loc, self.K, self.free, self.J):
+        for obj in (self.u, self.u_n, self.f, self.du, self.delta, self.loc, self.K,
+                    self.free, self.J):
             if obj is not None:
                 obj.destroy()
