@@ -108,6 +108,10 @@ def _reference_words(p) -> set:
             return {"solver/references/waves.py", "Terzaghi"}
         return {"Jacobi", "layered rod"} if p.rayleigh else \
             {"solver/references/site.py", "Jacobi"}
+    if p.material != "elastic":
+        # Every reference of a consolidation scene is linear elastic: none for soil that
+        # yields (solver/consolidation/setup.py).
+        return {"none"}
     t = typed(p)
     if plan.no_reference(t.body, t.loading):
         return {"FE", "solver/references/biot.py", "static"}

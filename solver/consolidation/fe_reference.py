@@ -123,6 +123,8 @@ def why_not(refs, loading, wanted: bool) -> str:
     gravity holds the water table's hydrostatic pressure, so its excess is the FE's.)"""
     if refs.available:
         return "the scene has a closed form"
+    if refs.fe_why:
+        return refs.fe_why
     if not wanted:
         return "turned off (-mpm_fe_reference 0)"
     if loading.self_weight:

@@ -22,11 +22,11 @@ class Consolidation:
         self.implicit = plan.method == "implicit"
         if self.implicit:
             self.engine = QuasiStatic(grid, points, plan.soil, plan.body, plan.loading,
-                                      plan.stabilize)
+                                      plan.stabilize, plan.materials)
             self.log_stage = "Implicit steps"
         else:
             self.engine = TwoPhase(grid, points, plan.soil, plan.body, plan.loading,
-                                   plan.scheme)
+                                   plan.scheme, plan.materials)
             self.log_stage = "Explicit steps"
         self.reports = reporting.Reporting(plan, grid, points, state, comm)
         # What a blow-up is measured against: the load, or the column's weight.

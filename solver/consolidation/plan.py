@@ -287,6 +287,8 @@ class Plan:
     probes: object = None
     method: str = "explicit"     # the time scheme: explicit or implicit
     stabilize: bool = True       # the implicit scheme's pressure projection
+    materials: tuple | None = None   # one yielding material per layer; None: linear elastic
+    material: str = "elastic"        # -mpm_material
 
 
 def axis(body: Body, loading: Loading) -> float:

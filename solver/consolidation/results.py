@@ -7,9 +7,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 
+import numpy as np
 from petsc4py import PETSc
+
+from ..io import output
 
 from . import reporting, settlement, workprecision
 
@@ -81,6 +85,7 @@ def finish(plan, model, record, comm) -> None:
                         f"(step {last[0]} of {plan.schedule.nsteps})", comm=comm)
     files = record.files
     files.update(reports.files)
+    files.update(_plastic_zone(plan, model.points, comm))
     if comm.getRank() == 0:
         series = reports.series.files()
         if series:
@@ -95,9 +100,31 @@ def finish(plan, model, record, comm) -> None:
 def _implicit_line(comm, counts):
     """The implicit scheme's steps, factorizations and solve time (the summary's
     ``implicit`` block), printed."""
+    if "newton_solves" in counts:       # a yielding soil: Newton at every stage
+        PETSc.Sys.Print(f"Implicit scheme: {counts['steps']} steps, {counts['newton_solves']} "
+                        f"Newton solves of {counts['newton_iterations']} iterations (at most "
+                        f"{counts['newton_most']})", comm=comm)
+        return
     PETSc.Sys.Print(f"Implicit scheme: {counts['steps']} steps, {counts['factorizations']} LU "
                     f"factorizations ({counts['factor_seconds']:.3g} s), {counts['solves']} "
                     f"solves ({counts['solve_seconds']:.3g} s)", comm=comm)
+
+
+def _plastic_zone(plan, points, comm) -> dict:
+    """plastic_zone.png of a yielding soil at the end (the points gathered on rank 0):
+    {name: path} of what was written."""
+    if plan.materials is None:
+        return {}
+    x, eps = points.get("x"), np.ravel(points.get("state_eps_p"))
+    gathered = comm.tompi4py().gather((x, eps), root=0)
+    if comm.getRank() != 0 or not plan.outputs.figures:
+        return {}
+    W = plan.body.size[0]
+    loaded = plan.loading.extent if plan.loading.partial(W) else (0.0, W)
+    return {"plastic_zone": output.plastic_zone(
+        os.path.join(plan.outputs.folder, "plastic_zone.png"), plan.outputs.formats,
+        np.concatenate([g[0] for g in gathered]), np.concatenate([g[1] for g in gathered]),
+        plan.body.size, loaded, f"plastic zone at the end ({plan.material})")}
 
 
 def _target_verdict(plan, summary, pace, comm):

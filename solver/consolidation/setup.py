@@ -15,6 +15,7 @@ from petsc4py import PETSc
 from ..common import signals
 from ..common.errors import InputError
 from ..io import checkpoint, memory, provenance, restart as restarts
+from ..materials import catalog, history
 from ..model import scene
 from ..model.scene import Body, Loading
 from ..model.soil import Ground, check_count
@@ -88,9 +89,28 @@ def validate(p) -> tuple:
         raise InputError("-mpm_work_precision: only used with -mpm_target_error")
     if not math.isnan(p.target_error) and not math.isnan(p.dt):
         raise InputError("-mpm_dt: -mpm_target_error picks the time step (leave one out)")
-    Ground.from_options(p)        # checks -mpm_layers and the per-layer values
+    ground = Ground.from_options(p)        # checks -mpm_layers and the per-layer values
     check_count("K0", p.K0, p.layers)
+    recipe = catalog.Recipe.from_options(p)
+    materials(recipe, ground)
+    if recipe.name == "mcc" and not geostatic:
+        raise InputError("-mpm_material mcc: needs -mpm_initial_state geostatic (Cam Clay's "
+                         "stiffness and strength grow from the effective stress at rest)")
     return p, notes
+
+
+def materials(recipe, ground):
+    """One material per layer (each layer's E and nu), or None for linear elastic soil."""
+    if recipe.elastic:
+        return None
+    return tuple(recipe.make(s.E, s.nu) for s in ground.soils)
+
+
+def _linear_only(refs, recipe):
+    """The references of a yielding soil: none (every one of them is linear elastic)."""
+    why = (f"the soil yields (-mpm_material {recipe.name}) and every reference here is "
+           "linear elastic")
+    return dataclasses.replace(refs, why=why, why_degree=why, drained=(), fe_why=why)
 
 
 def set_up(p, comm, record, owned) -> tuple:
@@ -116,7 +136,10 @@ def set_up(p, comm, record, owned) -> tuple:
     signals.stage("set-up: the time scheme and mass scaling")
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
     soil = ground.as_material()
+    recipe = catalog.Recipe.from_options(p)
     refs = References.of(soil, loading, body)
+    if not recipe.elastic:
+        refs = _linear_only(refs, recipe)
     if ckpt is not None:            # an end before the checkpoint: refused up front
         check_end(p.restart, ckpt.state, refs, p.Tv_end)
     scheme = Scheme.from_options(p, soil, min(p.Tv_report),
@@ -124,7 +147,7 @@ def set_up(p, comm, record, owned) -> tuple:
                                  inertia.load_swings(comm, body, soil, loading))
     req = choice.Request.from_options(p)
     method = schedules.method(comm, req, soil, body, scheme, refs, ckpt and ckpt.state)
-    fields = point_fields(scheme, ground.count > 1)
+    fields = {**point_fields(scheme, ground.count > 1), **history.fields(recipe)}
     if ckpt is not None:
         restarts.check_fields(p.restart, ckpt.layout, fields)
     memory.check(body)             # a model that does not fit says so first
@@ -144,9 +167,12 @@ def set_up(p, comm, record, owned) -> tuple:
         checkpoint.scatter(points, grid, ckpt, "x0" if scheme.kinematics == "small" else "x")
     elif loading.geostatic:
         scene.geostatic_state(points, body, soil, loading)
+    if ckpt is None and not recipe.elastic:
+        history.start(points, history.Layered(materials(recipe, ground),
+                                              history.layer_of(points)))
     limits, schedule = schedules.limits_and_schedule(comm, req, method, (body, soil, scheme),
                                                      grid.h, state, ckpt is not None, refs)
-    if not refs.available and not loading.self_weight:
+    if not refs.available and not loading.self_weight and recipe.elastic:
         signals.stage("set-up: the static references")
         refs = dataclasses.replace(refs, static=static.settlements(comm, body, soil, loading))
     signals.stage("set-up: the FE reference")
@@ -158,7 +184,8 @@ def set_up(p, comm, record, owned) -> tuple:
                 scene=workprecision.scene_signature(p), provenance=options,
                 restart=p.restart, resumed_id=ckpt.run_id if ckpt else None, goal=goal,
                 target_error=p.target_error, monitor_x=monitor[0], probes=probes,
-                method=method, stabilize=projects(p.pressure_stabilization, p.element))
+                method=method, stabilize=projects(p.pressure_stabilization, p.element),
+                materials=materials(recipe, ground), material=recipe.name)
     print_plan(comm, plan, points.n_global)
     return plan, grid, points, state
 

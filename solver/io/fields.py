@@ -99,6 +99,12 @@ class PointSeries:
             "effective_stress_xy": lambda: gathered("stress", lambda s: s[:, 2].copy())}
         if "layer" in points.layout:            # layered ground: the point's layer, 0 on top
             fields["layer"] = lambda: gathered("layer")
+        # A yielding soil's history (solver.consolidation.implicit.yielding).
+        for name, field in (("effective_stress_zz", "stress_zz"),
+                            ("plastic_multiplier", "state_eps_p"), ("yielding", "state_plastic"),
+                            ("preconsolidation_pressure", "state_p_c")):
+            if field in points.layout:
+                fields[name] = (lambda field=field: gathered(field))
         if self.writer is None:
             for field in fields.values():     # the gathers are collective
                 field()

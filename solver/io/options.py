@@ -31,7 +31,7 @@ EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST, STATIC = ("eigen", "consolidation", "dy
                                                    "soiltest", "static")
 ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST, STATIC)
 BOTH = (EIGEN, CONSOLIDATION, STATIC)      # the analyses of a body on supports
-MATERIAL = (SOILTEST, STATIC)              # the analyses that take -mpm_material
+MATERIAL = (CONSOLIDATION, SOILTEST, STATIC)   # the analyses that take -mpm_material
 MOVING = (CONSOLIDATION, DYNAMIC)       # the analyses that step in time
 BC_CHOICES = ("none", "x", "y", "xy")
 

@@ -375,3 +375,22 @@ def layer_interfaces(ax, soil, label: bool = False):
     for i, level in enumerate(getattr(soil, "bottoms", ())[:-1]):
         ax.axhline(level, color="tab:red", lw=1.2, ls="--", zorder=3,
                    label="layer interface" if label and i == 0 else None)
+
+
+def plastic_zone(path, formats, x, eps, size, loaded, title: str) -> list:
+    """The plastic-zone figure at ``path`` (its formats): every point at x (np, 2) (m)
+    coloured by its accumulated plastic multiplier ``eps`` (where the soil yielded), on a
+    body of ``size`` (W, H) (m) with the loaded part of its top (x0, x1) (m) marked."""
+    plt = pyplot()
+    W, H = size
+    fig, ax = plt.subplots(figsize=(8, 8 * H / W + 0.8))
+    shown = ax.scatter(x[:, 0], x[:, 1], c=eps, s=4, cmap="magma_r",
+                       vmin=0, vmax=max(float(eps.max()), 1e-12))
+    ax.plot(loaded, [H, H], "c-", lw=4, label="footing")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
+    fig.colorbar(shown, ax=ax, label="accumulated plastic multiplier (-)", shrink=0.8)
+    ax.legend(loc="lower right")
+    return save_figure(fig, path, formats=formats)

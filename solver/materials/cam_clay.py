@@ -35,8 +35,11 @@ class CamClay:
     ocr: float = 1.0
 
     def initial_state(self, stress) -> dict:
-        p, _ = invariants(stress)
-        return {"plastic": np.zeros(len(stress), dtype=bool), "p_c": self.ocr * p,
+        """p_c is ``ocr`` times that of the yield surface through the stress (a geostatic
+        start's q > 0 lies on the normally consolidated surface, not outside it)."""
+        p, q = invariants(stress)
+        through = p + np.divide(q * q, self.M ** 2 * p, out=np.zeros_like(p), where=p > 0)
+        return {"plastic": np.zeros(len(stress), dtype=bool), "p_c": self.ocr * through,
                 "eps_p": np.zeros(len(stress))}
 
     def update(self, stress, d_strain, state):

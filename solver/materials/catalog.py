@@ -4,6 +4,7 @@ naming the option): what every analysis that takes ``-mpm_material`` builds."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 from ..common.errors import InputError
 from .cam_clay import CamClay
@@ -49,3 +50,31 @@ def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0
                              f"{mcc['lam']:g} (swelling is stiffer than compression)")
         return CamClay(mcc["M"], mcc["lam"], mcc["kappa"], mcc["e0"], nu, mcc.get("ocr", 1.0))
     raise InputError(f"-mpm_material {name}: choose one of {', '.join(NAMES)}")
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A material named and parametrised once, made for each layer's elasticity: ``name``
+    (NAMES), cohesion (Pa), phi and psi (degrees; psi NaN: phi), the Cam Clay parameters
+    ``mcc`` ({M, lam, kappa, e0, ocr})."""
+
+    name: str = "elastic"
+    cohesion: float = 0.0
+    phi: float = 0.0
+    psi: float = math.nan
+    mcc: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_options(cls, p) -> "Recipe":
+        """The ``-mpm_material`` options of ``p``."""
+        return cls(p.material, p.cohesion, p.friction_angle, p.dilation_angle,
+                   {"M": p.mcc_M, "lam": p.mcc_lambda, "kappa": p.mcc_kappa,
+                    "e0": p.void_ratio, "ocr": p.mcc_ocr})
+
+    @property
+    def elastic(self) -> bool:
+        return self.name == "elastic"
+
+    def make(self, E: float, nu: float):
+        """The material of Young's modulus E (Pa) and Poisson's ratio nu (:func:`make`)."""
+        return make(self.name, E, nu, self.cohesion, self.phi, self.psi, self.mcc)

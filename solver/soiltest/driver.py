@@ -40,10 +40,7 @@ class SoilTestPlan:
 
     @classmethod
     def from_options(cls, p) -> "SoilTestPlan":
-        material = catalog.make(p.material, p.E, p.nu, p.cohesion, p.friction_angle,
-                                p.dilation_angle, {"M": p.mcc_M, "lam": p.mcc_lambda,
-                                                   "kappa": p.mcc_kappa, "e0": p.void_ratio,
-                                                   "ocr": p.mcc_ocr})
+        material = catalog.Recipe.from_options(p).make(p.E, p.nu)
         return cls(p.soiltest, p.material, material, p.confining, p.strain_end,
                    p.strain_steps, Outputs(p.output, p.summary or
                                            os.path.join(p.output, "summary.json"),

@@ -55,10 +55,7 @@ class StaticPlan:
 
     @classmethod
     def from_options(cls, p) -> "StaticPlan":
-        material = catalog.make(p.material, p.E, p.nu, p.cohesion, p.friction_angle,
-                                p.dilation_angle, {"M": p.mcc_M, "lam": p.mcc_lambda,
-                                                   "kappa": p.mcc_kappa, "e0": p.void_ratio,
-                                                   "ocr": p.mcc_ocr})
+        material = catalog.Recipe.from_options(p).make(p.E, p.nu)
         if p.material == "mcc":
             raise InputError("-mpm_material mcc: the static analysis starts unstressed (no "
                              "gravity yet), where Cam Clay has no strength")

@@ -109,24 +109,8 @@ def plastic_zone(plan, points, problem, comm, record):
     gathered = comm.tompi4py().gather((x, eps), root=0)
     if comm.getRank() != 0 or not plan.outputs.figures:
         return
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     x = np.concatenate([g[0] for g in gathered])
     eps = np.concatenate([g[1] for g in gathered])
-    W, H = plan.body.size
-    fig, ax = plt.subplots(figsize=(8, 8 * H / W + 0.8))
-    shown = ax.scatter(x[:, 0], x[:, 1], c=eps, s=4, cmap="magma_r",
-                       vmin=0, vmax=max(float(eps.max()), 1e-12))
-    ax.plot(plan.footing, [H, H], "c-", lw=4, label="footing")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(f"plastic zone at the last step ({plan.material_name})")
-    fig.colorbar(shown, ax=ax, label="accumulated plastic multiplier (-)", shrink=0.8)
-    ax.legend(loc="lower right")
-    record.files["plastic_zone"] = output.save_figure(
-        fig, os.path.join(plan.outputs.folder, "plastic_zone.png"),
-        formats=plan.outputs.formats)
+    record.files["plastic_zone"] = output.plastic_zone(
+        os.path.join(plan.outputs.folder, "plastic_zone.png"), plan.outputs.formats, x, eps,
+        plan.body.size, plan.footing, f"plastic zone at the last step ({plan.material_name})")

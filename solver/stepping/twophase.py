@@ -63,6 +63,7 @@ from petsc4py import PETSc
 
 from ..common.clock import log_event
 from ..common.errors import NumericalError
+from ..materials import history
 from ..model import shapes
 from ..model.scene import top_forces, water_forces
 from . import kernels
@@ -133,12 +134,18 @@ class TwoPhase:
     through ``MaterialPoints`` (it bumps the generation). The reference positions x0 are
     constants of the run."""
 
-    def __init__(self, grid, points, soil, body, loading, scheme):
+    def __init__(self, grid, points, soil, body, loading, scheme, materials=None):
         """The model of ``body`` (scene.Body: supports, drainage) on ``grid`` and
         ``points``, made of ``soil`` (soil.Soil, or soil.Ground of several layers: the
         points then carry their ``layer``), under ``loading`` (scene.Loading), stepped
-        with ``scheme`` (scheme.Scheme)."""
+        with ``scheme`` (scheme.Scheme); ``materials``: one yielding material per layer
+        (None: linear elastic), whose update corrects the kernels' elastic stress
+        (:meth:`_yield`)."""
         self.grid, self.points, self.soil, self.loading = grid, points, soil, loading
+        self.materials = materials
+        # The strain increment from the kernels' elastic stress increment: D^-1 per layer.
+        self._compliance = None if materials is None else \
+            np.linalg.inv(np.stack([s.elasticity() for s in soil.soils]))
         self.lumping = scheme.lumping
         # Small kinematics: shape functions at the initial positions x0 (a point's cell never
         # changes, so nothing migrates); large: at the current positions.
@@ -427,6 +434,7 @@ class TwoPhase:
                 self.da_g.globalToLocal(self.glob_g, self.loc_g)
 
         with self.ev_g2p:
+            before = None if self.materials is None else self.points.get("stress")
             if self.serial:
                 kernels.grid_to_points_serial(off, C, self._hrz, self._blend, self._layered,
                                                dt, flip)
@@ -435,6 +443,22 @@ class TwoPhase:
                                         flip)
                 if self.project:
                     self._project()
+            if before is not None:
+                self._yield(before)
+
+    def _yield(self, before):
+        """The points' stresses from their materials: the step's strain increment is what
+        the kernels' elastic increment D d eps (from ``before``, (np, 3), Pa) says, and each
+        material updates the last stress and history by it (vectorised over the points of
+        each layer)."""
+        points = self.points
+        layer = history.layer_of(points)
+        layered = history.Layered(self.materials, layer)
+        d = np.zeros((len(layer), 4))
+        d[:, history.PLANE] = np.einsum("pij,pj->pi", self._compliance[layer],
+                                        points.get("stress") - before)
+        stress, state = history.read(points, layered, before)
+        history.write(points, *layered.update(stress, d, state))
 
     def _project(self):
         """Several ranks: the pressure projection's nodal sums over the ranks, the division

@@ -4,6 +4,7 @@ knows nothing of the run around it (the plan, the reporting).
 - ``operators``: the u-p operators K, Q, S, H over the material points, the pressure
   projection, the held DOFs;
 - ``quasistatic``: the undrained start, TR-BDF2 on graded steps, MUMPS LU, the points' fields;
+- ``yielding``: soil that yields: each stage's Newton on SNES with the materials' stresses;
 - ``choice``: ``-mpm_scheme auto`` (which scheme, and why) and the options of each scheme.
 
 May import: eigen, stepping, modal, run, io, references, materials, model, common.

@@ -42,8 +42,10 @@ from ...model.scene import destroy, geostatic_fields, top_forces, water_forces
 from ...model.soil import G_REF
 from ...references.biot import GAMMA, schedule as graded
 from .operators import Operators, per_point
+from .yielding import Yielding
 
 _BDF_NEW = 1 / (GAMMA * (2 - GAMMA))
+START_CUTS = 6      # halvings of the undrained start's load where the soil yields
 _BDF_OLD = (1 - GAMMA) ** 2 / (GAMMA * (2 - GAMMA))
 
 
@@ -75,9 +77,11 @@ def graded_steps(named: dict, steps: int, ramp: float = 0.0) -> np.ndarray:
 class QuasiStatic:
     """The implicit scheme's state and solver on one grid; the time loop calls
     :meth:`start` once (t = 0+) and :meth:`step` per step; both write the points' fields.
-    ``stabilize``: the pressure projection (:mod:`.operators`). The caller destroys it."""
+    ``stabilize``: the pressure projection (:mod:`.operators`); ``materials``: one per layer
+    where the soil yields (:mod:`.yielding`: Newton per stage), None for linear elastic
+    soil. The caller destroys it."""
 
-    def __init__(self, grid, points, soil, body, loading, stabilize: bool):
+    def __init__(self, grid, points, soil, body, loading, stabilize: bool, materials=None):
         self.grid, self.points, self.loading = grid, points, loading
         self.comm = grid.comm
         self.mpi = self.comm.tompi4py()
@@ -114,6 +118,9 @@ class QuasiStatic:
         self.u_prev = np.zeros((len(volume), 2))
         if not loading.geostatic and g > 0:
             self._start_at_zero_pressure()
+        self.yielding = None if materials is None else \
+            Yielding(ops, materials, layer, self.sigma0, volume, self.comm)
+        self._load_scale = None
 
     # -- set-up ---------------------------------------------------------------------------
     def _start_at_zero_pressure(self):
@@ -203,11 +210,55 @@ class QuasiStatic:
             r.axpy(c, m)
         return r
 
+    def load_scale(self) -> float:
+        """|d (F_q + F_g)|: the scaled size of the whole load (what Newton's tolerance is
+        relative to)."""
+        if self._load_scale is None:
+            self.F_q.copy(self.tmp)
+            self.tmp.axpy(1.0, self.F_g)
+            self.tmp.pointwiseMult(self.tmp, self.d)
+            self._load_scale = self.tmp.norm() or 1.0
+        return self._load_scale
+
+    def _stage(self, c, held, rhs, when: str):
+        """The stage's solution (the work vector): linear, or Newton from the state y where
+        the soil yields."""
+        if self.yielding is None:
+            return self._solve(c, held, rhs)
+        self.y.copy(self.work)
+        return self.yielding.solve(self, c, held, rhs, self.work, when)
+
     # -- the scheme ---------------------------------------------------------------------------
     def start(self):
-        """The undrained state at t = 0+ (water has not moved; the drained sides' p free)."""
+        """The undrained state at t = 0+ (water has not moved; the drained sides' p free).
+        Where the soil yields the load goes on in 1, 2, 4 ... up to 2^START_CUTS equal
+        undrained increments until Newton converges on each (the path matters)."""
         self.key = None
-        self._solve(0.0, self.held_undrained, self._rhs(0.0, self.y)).copy(self.y)
+        if self.yielding is None:
+            self._solve(0.0, self.held_undrained, self._rhs(0.0, self.y)).copy(self.y)
+            self.to_points(None)
+            return
+        y0, stored = self.y.copy(), self.y.duplicate()
+        self.ops.M.mult(y0, stored)
+        f = self.loading.factor(0.0)
+        for cut in range(START_CUTS + 1):
+            n = 2 ** cut
+            try:
+                for k in range(1, n + 1):
+                    r = self.rhs
+                    self.F_g.copy(r)
+                    r.axpy(f * k / n, self.F_q)
+                    r.axpy(-1.0, stored)
+                    self._stage(0.0, self.held_undrained, r, "at t = 0+ (undrained)"
+                                ).copy(self.y)
+                break
+            except NumericalError:
+                if cut == START_CUTS:
+                    raise
+                y0.copy(self.y)
+                self.yielding.reset(y0)
+        y0.destroy()
+        stored.destroy()
         self.to_points(None)
 
     def step(self, t0: float, t1: float):
@@ -218,11 +269,13 @@ class QuasiStatic:
             self.h_used = h
         c = GAMMA * self.h_used / 2
         y_tr = self.y_tr
-        self._solve(c, self.held, self._rhs(t0 + GAMMA * h, self.y, c, self.y)).copy(y_tr)
+        when = f"in the step to t = {t1:.6g} s"
+        self._stage(c, self.held, self._rhs(t0 + GAMMA * h, self.y, c, self.y), when
+                    ).copy(y_tr)
         # The BDF2 stage's storage argument, (y_tr - (1 - gamma)^2 y) / (gamma (2 - gamma)).
         y_tr.scale(_BDF_NEW)
         y_tr.axpy(-_BDF_OLD, self.y)
-        self._solve(c, self.held, self._rhs(t1, y_tr)).copy(self.y)
+        self._stage(c, self.held, self._rhs(t1, y_tr), when).copy(self.y)
         self.steps += 1
         self.to_points(h)
 
@@ -246,9 +299,12 @@ class QuasiStatic:
             x[:] = self.x0 + u
             v_s[:] = vs
             v_l[:] = vs - (self.mobility / self.porosity)[:, None] * grad
-            st[:] = self.sigma0 + sig
+            if self.yielding is None:
+                st[:] = self.sigma0 + sig
             pp[:] = self.p_h + np.sum(ops.p.N * pe, 1)
             Jv[:] = 1 + eps[:, 0] + eps[:, 1]
+        if self.yielding is not None:
+            self.yielding.to_fields(self.points)
         if "gradp" in self.points.layout:
             with self.points.fields("gradp") as gp:
                 gp[:] = grad
@@ -280,12 +336,19 @@ class QuasiStatic:
         nat.setArray(np.asarray(values, dtype=float)[lo:hi])
         self.ops.da.naturalToGlobal(nat, self.y)
         nat.destroy()
+        if self.yielding is not None:
+            self.yielding.from_fields(self.points, self.y)
         self.to_points(None)
 
     def summary(self) -> dict:
-        return {"steps": self.steps, "factorizations": self.factorizations,
-                "solves": self.solves, "factor_seconds": self.factor_seconds,
-                "solve_seconds": self.solve_seconds}
+        out = {"steps": self.steps, "factorizations": self.factorizations,
+               "solves": self.solves, "factor_seconds": self.factor_seconds,
+               "solve_seconds": self.solve_seconds}
+        if self.yielding is not None:
+            its = self.yielding.iterations
+            out.update(newton_solves=len(its), newton_iterations=int(sum(its)),
+                       newton_most=int(max(its, default=0)))
+        return out
 
     def _release(self):
         destroy(self.ksp, self.J)
@@ -294,5 +357,7 @@ class QuasiStatic:
     def destroy(self):
         """Free the factorization, the operators and the vectors."""
         self._release()
+        if self.yielding is not None:
+            self.yielding.destroy()
         destroy(self.y, self.F_q, self.F_g, self.work, self.rhs, self.tmp, self.y_tr, self.loc,
                 self.d, self.ops)
