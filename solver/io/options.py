@@ -100,8 +100,9 @@ SPEC = [
            checks.positive),
     Option("k", "float_or_floats", 2.5e-4, "hydraulic conductivity (m/s), defined with g = "
            "9.81 m/s2, per layer", MOVING, checks.positive),
-    Option("gravity", "float", 0.0, "body force, acting downwards (m/s2)", (CONSOLIDATION,),
-           checks.nonnegative),
+    Option("gravity", "float", 0.0, "body force, acting downwards (m/s2); static: the body "
+           "starts at rest under it (K0), its weight buoyant under the water table at the "
+           "surface (dry with -mpm_rho_l 0)", (CONSOLIDATION, STATIC), checks.nonnegative),
     Option("initial_state", "str", "deposited", "the state before the load, with gravity: "
            "deposited (a fresh deposit, pore pressure and effective stress 0: it consolidates "
            "under its own weight) or geostatic (hydrostatic pore pressure and K0 effective "
@@ -109,13 +110,14 @@ SPEC = [
            "gravity)", (CONSOLIDATION,), choices=("deposited", "geostatic")),
     Option("K0", "float_or_floats", float("nan"), "earth pressure coefficient at rest "
            "sigma'_h / sigma'_v of the geostatic state, per layer (default: each layer's "
-           "nu / (1 - nu))", (CONSOLIDATION,), checks.nonnegative),
+           "nu / (1 - nu))", (CONSOLIDATION, STATIC), checks.nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa); dynamic: "
-           "applied suddenly at t = 0, and only when given",
-           MOVING, checks.nonnegative),
+           "applied suddenly at t = 0, and only when given; static: raised in -mpm_load_steps "
+           "(in place of a footing), only when given",
+           MOVING + (STATIC,), checks.nonnegative),
     Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
            "footing on a half model with rollers on its axis x = 0 (default: the whole top)",
-           MOVING, length=2),
+           MOVING + (STATIC,), length=2),
     Option("load_ramp", "float", 0.0, "time over which the load rises linearly to q (s)",
            (CONSOLIDATION,), checks.nonnegative),
     Option("drained", "strs", ("top",), "drained sides (p = 0); the others are impermeable "
@@ -293,6 +295,8 @@ SPEC = [
            "displacement) or rough (both)", (STATIC,), choices=("smooth", "rough")),
     Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)",
            (STATIC,), checks.positive),
+    Option("surcharge", "float", 0.0, "a pressure q0 on the top outside the footing or load "
+           "(Pa), on from the start", (STATIC,), checks.nonnegative),
     Option("load_steps", "int", 20, "equal settlement steps (each halved where Newton does "
            "not converge)", (STATIC,), checks.at_least_one),
     Option("bbar", "bool", True, "B-bar: each point's volume change its cell's", (STATIC,)),

@@ -27,7 +27,8 @@ from ..io.output import Outputs
 from ..materials import catalog
 from ..model.grid import Grid
 from ..model.points import place
-from ..model.scene import Body
+from ..model.scene import Body, Loading, geostatic_fields, top_forces
+from ..model.soil import Ground
 from ..run.record import Record, guarded, owned
 from . import reporting
 from .problem import StaticProblem
@@ -38,8 +39,10 @@ GROW_BELOW = 6      # a step that converged in fewer Newton iterations doubles t
 
 @dataclass(frozen=True)
 class StaticPlan:
-    """The body, its material, the footing (x0, x1 in m; rough or smooth), the settlement
-    (m) in steps, B-bar, where results go, the provenance."""
+    """The body, its soil (densities, for gravity) and material, the footing (x0, x1 in m;
+    rough or smooth; () under load control) pushed to the settlement (m) in steps, or the
+    load (``loading``: q (Pa) on its extent, gravity (m/s2), K0) raised to q in steps;
+    ``surcharge`` (Pa) on the rest of the top, B-bar, where results go, the provenance."""
 
     body: Body
     material: object
@@ -52,38 +55,59 @@ class StaticPlan:
     bbar: bool
     outputs: Outputs
     provenance: dict
+    soil: object = None
+    loading: Loading = Loading(load=0.0)
+    surcharge: float = 0.0
 
     @classmethod
     def from_options(cls, p) -> "StaticPlan":
         material = catalog.Recipe.from_options(p).make(p.E, p.nu)
-        if p.material == "mcc":
-            raise InputError("-mpm_material mcc: the static analysis starts unstressed (no "
-                             "gravity yet), where Cam Clay has no strength")
-        if not p.footing:
-            raise InputError("-mpm_footing X0,X1: the static analysis pushes a footing")
-        x0, x1 = p.footing
+        if p.material == "mcc" and p.gravity == 0 and p.surcharge == 0:
+            raise InputError("-mpm_material mcc: Cam Clay has no strength in a weightless "
+                             "body without a surcharge (give -mpm_gravity or -mpm_surcharge)")
+        loading = Loading(load=p.load if "load" in p.given else 0.0, gravity=p.gravity,
+                          geostatic=p.gravity > 0, K0=p.K0, extent=tuple(p.load_extent))
+        if p.footing and loading.load:
+            raise InputError("-mpm_load: the footing (-mpm_footing) is pushed; give one of "
+                             "the two")
+        if not p.footing and not loading.load:
+            raise InputError("-mpm_footing X0,X1 or -mpm_load: the static analysis pushes a "
+                             "footing or raises a load")
+        x0, x1 = p.footing or (loading.extent or (0.0, p.size[0]))
         if not 0 <= x0 < x1 <= p.size[0]:
-            raise InputError(f"-mpm_footing {x0:g},{x1:g}: outside the top (0 <= x0 < x1 "
-                             f"<= {p.size[0]:g} m)")
+            raise InputError(f"-mpm_{'footing' if p.footing else 'load_extent'} {x0:g},"
+                             f"{x1:g}: outside the top (0 <= x0 < x1 <= {p.size[0]:g} m)")
         return cls(Body.from_options(p), material, p.material, p.cohesion, (x0, x1),
                    p.footing_interface == "rough", p.footing_settlement, p.load_steps,
                    p.bbar, Outputs(p.output, p.summary or os.path.join(p.output,
                                                                        "summary.json"),
-                                   p.figures, p.figure_format), provenance.options(p))
+                                   p.figures, p.figure_format), provenance.options(p),
+                   Ground.from_options(p).as_material(), loading, p.surcharge)
+
+    @property
+    def load_control(self) -> bool:
+        return self.loading.load > 0
 
     def reference(self) -> tuple:
-        """(the reference bearing capacity (Pa), its name), or (NaN, None): Prandtl's
-        (2 + pi) c_u on Tresca soil; Prandtl-Reissner's N_c c on weightless c-phi soil under
-        associated flow (N_c = (N_q - 1) cot phi, N_q = e^(pi tan phi) tan^2(45 + phi/2);
-        Drucker-Prager's plane-strain match has Mohr-Coulomb's collapse loads)."""
-        m = self.material
+        """(the reference bearing capacity (Pa), its name), or (NaN, None) (with gravity):
+        Prandtl's (2 + pi) c_u + q0 on Tresca soil; Prandtl-Reissner's N_c c + N_q q0 on
+        weightless c-phi soil under associated flow (N_q = e^(pi tan phi) tan^2(45 +
+        phi/2), N_c = (N_q - 1) cot phi; Drucker-Prager's plane-strain match has
+        Mohr-Coulomb's collapse loads), q0 the surcharge."""
+        m, q0 = self.material, self.surcharge
+        if self.loading.gravity > 0:
+            return math.nan, None
         if self.material_name == "tresca":
-            return (2 + math.pi) * self.cohesion, "Prandtl (2 + pi) c_u"
+            return (2 + math.pi) * self.cohesion + q0, "Prandtl (2 + pi) c_u" + \
+                (" + q0" if q0 else "")
         if self.material_name in ("mohr-coulomb", "drucker-prager") and m.phi > 0 \
                 and m.psi == m.phi and m.cohesion > 0:
             t = math.tan(math.radians(m.phi))
             N_q = math.exp(math.pi * t) * math.tan(math.radians(45 + m.phi / 2)) ** 2
-            return (N_q - 1) / t * m.cohesion, f"Prandtl-Reissner N_c c (N_c {(N_q - 1) / t:.4g})"
+            N_c = (N_q - 1) / t
+            return N_c * m.cohesion + N_q * q0, (f"Prandtl-Reissner N_c c (N_c {N_c:.4g})"
+                                                 + (f" + N_q q0 (N_q {N_q:.4g})" if q0
+                                                    else ""))
         return math.nan, None
 
 
@@ -99,18 +123,55 @@ def run(p, comm) -> int:
 
 def _held(grid, plan) -> tuple:
     """(held, loaded): masks over the owned DOFs of the supports and the footing, and of
-    the footing's vertical DOFs."""
+    the vertical DOFs of the footing (or of the top under the load)."""
     held = grid.constrained_mask(plan.body.supports).reshape(-1, 2)
     I, J = grid.owned_lattice()
     x = I * grid.h[0] / grid.order
     under = (J == grid.nodes[1] - 1) & (x >= plan.footing[0] - 1e-9 * grid.h[0]) \
         & (x <= plan.footing[1] + 1e-9 * grid.h[0])
-    held[under, 1] = True
-    if plan.rough:
-        held[under, 0] = True
+    if not plan.load_control:
+        held[under, 1] = True
+        if plan.rough:
+            held[under, 0] = True
     loaded = np.zeros_like(held)
     loaded[under, 1] = True
     return held.ravel(), loaded.ravel()
+
+
+def _start(grid, points, plan) -> tuple:
+    """(the points' stress at the start (np, 3), Pa: at rest under gravity and the
+    surcharge; the constant external forces and the load's, over the owned DOFs, N per m
+    depth: the soil's weight (buoyant under the water table at the surface, dry with
+    -mpm_rho_l 0), the surcharge on the top outside the footing or load, the load q on its
+    extent), as a function of the problem (for its point forces)."""
+    soil, loading, q0 = plan.soil, plan.loading, plan.surcharge
+    x0 = points.get("x")
+    sigma0 = geostatic_fields(x0, plan.body, soil, loading)[1] if loading.gravity > 0 \
+        else np.zeros((len(x0), 3))
+    K0 = loading.K0[0] if isinstance(loading.K0, tuple) else loading.K0
+    K0 = soil.soils[0].nu / (1 - soil.soils[0].nu) if math.isnan(K0) else K0
+    sigma0[:, 1] -= q0
+    sigma0[:, 0] -= K0 * q0
+    I, J = grid.owned_lattice()
+    top = J == grid.nodes[1] - 1
+
+    def forces(problem):
+        constant, load = np.zeros(2 * len(I)), np.zeros(2 * len(I))
+        if loading.gravity > 0:
+            layers = soil.soils
+            layer = soil.layer_of(x0[:, 1]) if len(layers) > 1 else np.zeros(len(x0), int)
+            gamma = np.array([(1 - s.porosity) * (s.rho_s - s.rho_l) * loading.gravity
+                              for s in layers])[layer]
+            constant += problem.point_forces(-points.get("volume") * gamma)
+        if q0:
+            sides = top_forces(grid, Loading(load=q0)) - \
+                top_forces(grid, Loading(load=q0, extent=plan.footing))
+            constant[2 * np.flatnonzero(top) + 1] -= sides[I[top]]
+        if plan.load_control:
+            load[2 * np.flatnonzero(top) + 1] -= top_forces(grid, loading)[I[top]]
+        return constant, load
+
+    return sigma0, forces
 
 
 def _analysis(plan, comm, record, stack) -> None:
@@ -121,49 +182,77 @@ def _analysis(plan, comm, record, stack) -> None:
     points = place(grid, body.ppc, 1.0, "uniform")
     stack.callback(points.destroy)
     held, loaded = _held(grid, plan)
-    problem = StaticProblem(grid, points, plan.material, held, loaded, plan.bbar)
+    sigma0, forces = _start(grid, points, plan)
+    problem = StaticProblem(grid, points, plan.material, held, loaded, plan.bbar, sigma0,
+                            plan.load_control)
     stack.callback(problem.destroy)
+    problem.loads(*forces(problem))
     newton = _newton(comm, problem)
     for obj in newton:
         stack.callback(obj.destroy)
-    width = plan.footing[1] - plan.footing[0]
-    PETSc.Sys.Print(f"Static analysis: a {'rough' if plan.rough else 'smooth'} footing "
-                    f"{plan.footing[0]:g} to {plan.footing[1]:g} m on {plan.material_name}, "
-                    f"{body.element.upper()} {body.cells[0]} x {body.cells[1]} cells, "
-                    f"{points.n_global} points, B-bar {'on' if plan.bbar else 'off'}",
-                    comm=comm)
+    what = (f"a load of {plan.loading.load:g} Pa" if plan.load_control else
+            f"a {'rough' if plan.rough else 'smooth'} footing")
+    PETSc.Sys.Print(f"Static analysis: {what} {plan.footing[0]:g} to {plan.footing[1]:g} m "
+                    f"on {plan.material_name}, {body.element.upper()} {body.cells[0]} x "
+                    f"{body.cells[1]} cells, {points.n_global} points, B-bar "
+                    f"{'on' if plan.bbar else 'off'}"
+                    + (f", gravity {plan.loading.gravity:g} m/s2" if plan.loading.gravity
+                       else "") + (f", surcharge {plan.surcharge:g} Pa" if plan.surcharge
+                                   else ""), comm=comm)
     series = reporting.FieldSeries(plan.outputs.folder, comm)
     record.enter("stepping")
-    curve, residuals = [(0.0, 0.0)], []
-    s, ds, last = 0.0, plan.settlement / plan.steps, 0.0
-    while s < plan.settlement * (1 - 1e-12):
-        step = min(ds, plan.settlement - s)
+    if _step(newton, problem, 0.0, 0.0) is None:
+        raise NumericalError("static: no equilibrium at the start (the weight and the "
+                             "surcharge alone fail the soil)")
+    _stepping(plan, problem, newton, points, series, comm, record)
+    record.enter("reporting")
+    reporting.plastic_zone(plan, points, problem, comm, record)
+    if series.files():
+        record.files["fields"] = series.files()
+    record.finish()
+
+
+def _stepping(plan, problem, newton, points, series, comm, record) -> None:
+    """The steps to the settlement (or the load), each halved where Newton does not
+    converge, up to CUTS times; the load-displacement curve reported (also when the run
+    gives up: exit 3)."""
+    width = plan.footing[1] - plan.footing[0]
+    q = plan.loading.load
+
+    def measured(value):
+        return ((problem.settlement(), value * q) if plan.load_control else
+                (value, problem.reaction() / width))
+
+    end = 1.0 if plan.load_control else plan.settlement
+    unit = "load" if plan.load_control else "settlement"
+    curve, residuals = [measured(0.0)], []
+    s, ds, last = 0.0, end / plan.steps, 0.0
+    while s < end * (1 - 1e-12):
+        step = min(ds, end - s)
         its = _step(newton, problem, s + step, step / last if last else 0.0)
         if its is None:
             ds /= 2
-            if ds < plan.settlement / plan.steps / 2 ** CUTS:
+            if ds < end / plan.steps / 2 ** CUTS:
                 # The converged steps are written before the run gives up (exit 3).
                 reporting.report(plan, np.array(curve), residuals, points.n_global, comm,
-                                 record)
-                raise NumericalError(f"static: Newton did not converge at settlement "
-                                     f"{s + step:.4g} m, even with steps {2 ** CUTS} times "
+                                 record, failed=True)
+                at = (f"the soil failed under {(s + step) * q:.4g} Pa (the last load carried "
+                      f"{s * q:.4g} Pa): Newton found no equilibrium" if plan.load_control
+                      else f"Newton did not converge at settlement {s + step:.4g} m")
+                raise NumericalError(f"static: {at}, even with steps {2 ** CUTS} times "
                                      "shorter (-mpm_snes_*, -mpm_load_steps)")
             continue
         s, last = s + step, step
         residuals.append(its)
         if len(its) <= GROW_BELOW:       # an easy step: back towards the asked length
-            ds = min(2 * ds, plan.settlement / plan.steps)
+            ds = min(2 * ds, end / plan.steps)
         record.steps = len(residuals)
-        curve.append((s, problem.reaction() / width))
-        series.write(points, problem, len(residuals), s)
-        PETSc.Sys.Print(f"  settlement {s:.5g} m: pressure {curve[-1][1]:.6g} Pa, "
+        curve.append(measured(s))
+        series.write(points, problem, len(residuals), curve[-1][0])
+        PETSc.Sys.Print(f"  {unit} {s if not plan.load_control else s * q:.5g}: settlement "
+                        f"{curve[-1][0]:.5g} m, pressure {curve[-1][1]:.6g} Pa, "
                         f"{len(its) - 1} Newton iterations", comm=comm)
-    record.enter("reporting")
     reporting.report(plan, np.array(curve), residuals, points.n_global, comm, record)
-    reporting.plastic_zone(plan, points, problem, comm, record)
-    if series.files():
-        record.files["fields"] = series.files()
-    record.finish()
 
 
 def _newton(comm, problem) -> tuple:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from ..materials.history import in_plane
 from ..materials.model import tangent
 from ..model import assembly
 
@@ -58,24 +59,33 @@ def strain_operator(interp, x, volume, bbar: bool) -> np.ndarray:
 class StaticProblem:
     """The points' stresses and history at the last converged step, the displacement
     there, and the residual and Jacobian of a step (as SNES calls them). ``held`` (owned
-    DOFs) are prescribed; ``loaded`` (owned y DOFs of the footing) carry the footing's
-    settlement, whose reaction :meth:`reaction` sums."""
+    DOFs) are prescribed; ``loaded`` (owned y DOFs of the footing, or of the top under the
+    load) carry the footing's settlement, whose reaction :meth:`reaction` sums.
+    ``sigma0`` (np, 3) (Pa; xx, yy, xy, its zz taken as xx) the stress at the start, in
+    equilibrium with the constant external forces :meth:`loads` sets (gravity, a
+    surcharge); under load control (``load_control``) the prescribed value of a step is
+    the share of the load vector that :meth:`loads` sets too."""
 
-    def __init__(self, grid, points, material, held, loaded, bbar: bool):
+    def __init__(self, grid, points, material, held, loaded, bbar: bool, sigma0=None,
+                 load_control: bool = False):
         self.grid, self.material, self.comm = grid, material, grid.comm
         x, self.volume = points.get("x", "volume")
         self.it = assembly.interpolation(grid, x)
         self.B = strain_operator(self.it, x, self.volume, bbar)
         self.dofs = np.ascontiguousarray(self.it.dofs, dtype=PETSc.IntType)
-        self.stress = np.zeros((len(self.volume), 4))
+        sigma0 = np.zeros((len(self.volume), 3)) if sigma0 is None else sigma0
+        self.stress = in_plane(sigma0, sigma0[:, 0])
         self.state = material.initial_state(self.stress)
         self.trial = (self.stress, self.state)
         da = grid.da
         # u, the last converged u_n, the internal forces f (what the reaction sums), the last
-        # step's increment du (the predictor) and the step's increment u - u_n so far.
-        self.u, self.u_n, self.f, self.du, self.delta = (da.createGlobalVec()
-                                                         for _ in range(5))
-        self.du.set(0.0)
+        # step's increment du (the predictor) and the step's increment u - u_n so far; the
+        # constant external forces and the load's (at its full value).
+        self.u, self.u_n, self.f, self.du, self.delta, self.f_const, self.f_load = (
+            da.createGlobalVec() for _ in range(7))
+        for v in (self.du, self.f_const, self.f_load):
+            v.set(0.0)
+        self.load_control, self.factor = load_control, 0.0
         self.loc = da.createLocalVec()
         self.K = da.createMat()
         self.K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
@@ -96,12 +106,21 @@ class StaticProblem:
         return self.f.getArray() > 0
 
     # -- a step ---------------------------------------------------------------------------
-    def prescribe(self, settlement: float):
-        """The held DOFs' values for a footing settlement (m, downwards): the footing's y
-        DOFs at -settlement, the supports at 0."""
+    def loads(self, constant, load):
+        """The external forces (owned DOFs, N per m depth): ``constant`` always on (the
+        weight, a surcharge), ``load`` scaled by the step's share under load control."""
+        self.f_const.getArray()[:] = constant
+        self.f_load.getArray()[:] = load
+
+    def prescribe(self, value: float):
+        """A step's target: the footing's settlement (m, downwards; its y DOFs at -value),
+        or under load control the load's share; the supports at 0."""
         arr = self.u.getArray()
         arr[self.held] = 0.0
-        arr[self.loaded] = -settlement
+        if self.load_control:
+            self.factor = value
+        else:
+            arr[self.loaded] = -value
 
     def _increment(self):
         """Each point's strain increment (np, 4) from u - u_n."""
@@ -112,6 +131,16 @@ class StaticProblem:
         d = np.zeros((len(du), 4))
         d[:, PLANE] = np.einsum("pij,pj->pi", self.B, du)
         return d
+
+    def point_forces(self, fy) -> np.ndarray:
+        """Forces fy (np,) (N per m depth, upwards) at the points spread by their shape
+        functions onto the y DOFs: the owned DOFs' values."""
+        arr = self.loc.getArray()
+        arr[:] = 0.0
+        np.add.at(arr, self.dofs[:, 1::2].ravel(), (fy[:, None] * self.it.N).ravel())
+        self.delta.set(0.0)
+        self.grid.da.localToGlobal(self.loc, self.delta, addv=PETSc.InsertMode.ADD_VALUES)
+        return self.delta.getArray().copy()
 
     def _set_free(self, x):
         sub = self.u.getSubVector(self.free)
@@ -132,6 +161,11 @@ class StaticProblem:
         sub = self.f.getSubVector(self.free)
         sub.copy(F)
         self.f.restoreSubVector(self.free, sub)
+        for vec, scale in ((self.f_const, 1.0), (self.f_load, self.factor)):
+            if scale:
+                sub = vec.getSubVector(self.free)
+                F.axpy(-scale, sub)
+                vec.restoreSubVector(self.free, sub)
 
     def jacobian(self, snes, x, J, P):
         """sum V B^T D_alg B over the free DOFs."""
@@ -170,13 +204,21 @@ class StaticProblem:
                          np.sum(self.it.N * u[:, 1::2], axis=1)], axis=1)
 
     def reaction(self) -> float:
-        """The footing's downward force (N per m depth): minus the internal forces' y
-        components summed over its nodes (collective)."""
-        local = -float(np.sum(self.f.getArray()[self.loaded]))
+        """The footing's downward force (N per m depth): minus the y components of the
+        internal forces less the constant external ones (the weight, a surcharge's share
+        on the footing's edge nodes) summed over its nodes (collective)."""
+        net = self.f.getArray()[self.loaded] - self.f_const.getArray()[self.loaded]
+        local = -float(np.sum(net))
         return self.comm.tompi4py().allreduce(local)
 
+    def settlement(self) -> float:
+        """The mean settlement (m, downwards) of the loaded top nodes (collective)."""
+        mpi = self.comm.tompi4py()
+        values = self.u_n.getArray()[self.loaded]
+        return -mpi.allreduce(float(np.sum(values))) / max(mpi.allreduce(len(values)), 1)
+
     def destroy(self):
-        for obj in (self.u, self.u_n, self.f, self.du, self.delta, self.loc, self.K,
-                    self.free, self.J):
+        for obj in (self.u, self.u_n, self.f, self.du, self.delta, self.f_const, self.f_load,
+                    self.loc, self.K, self.free, self.J):
             if obj is not None:
                 obj.destroy()

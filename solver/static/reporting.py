@@ -57,11 +57,15 @@ class FieldSeries:
         self.writer.write(step, settlement, whole["x"], fields)
 
 
-def report(plan, curve, residuals, n_points, comm, record):
-    """The summary's static block, load_displacement.csv and its figure."""
+def report(plan, curve, residuals, n_points, comm, record, failed: bool = False):
+    """The summary's static block, load_displacement.csv and its figure; ``failed``: the
+    run gave up at the next step (under load control: the soil failed there)."""
     pressure = curve[:, 1]
     peak = int(np.argmax(pressure))
-    if pressure[peak] > pressure[-1] * 1.005:
+    if plan.load_control:
+        capacity, how = (float(pressure[-1]), "the last load carried before the soil "
+                         "failed") if failed else (math.nan, "none: the whole load carried")
+    elif pressure[peak] > pressure[-1] * 1.005:
         capacity, how = float(pressure[peak]), "the peak"
     else:
         capacity, how = float(pressure[-1]), "the plateau (the last step)"
@@ -69,12 +73,13 @@ def report(plan, curve, residuals, n_points, comm, record):
     record.results.update({
         "bearing_capacity_pa": capacity, "picked": how, "reference_pa": ref,
         "reference": name, "error_pct": 100 * (capacity / ref - 1) if name else math.nan,
+        "control": "load" if plan.load_control else "settlement",
         "n_points": n_points, "newton_iterations": [len(r) - 1 for r in residuals],
         "newton_residuals": residuals,
         "settlement_m": float(curve[-1, 0])})
     PETSc.Sys.Print(f"Bearing capacity {capacity:.6g} Pa ({how})"
                     + (f"; {name} = {ref:.6g} Pa: {100 * (capacity / ref - 1):+.2f} %"
-                       if name else ""), comm=comm)
+                       if name and math.isfinite(capacity) else ""), comm=comm)
     if comm.getRank() != 0:
         return
     folder = plan.outputs.folder
@@ -94,7 +99,8 @@ def report(plan, curve, residuals, n_points, comm, record):
         if name:
             ax.axhline(ref / 1e3, color="k", ls="--", label=name)
         ax.set_xlabel("settlement (mm)")
-        ax.set_ylabel("mean contact pressure (kPa)")
+        ax.set_ylabel("the load (kPa)" if plan.load_control else
+                      "mean contact pressure (kPa)")
         ax.legend()
         ax.grid(alpha=0.3)
         record.files["figures"] = output.save_figure(
