@@ -88,16 +88,14 @@ SPEC = [
            BOTH, choices=BC_CHOICES),
     Option("nmodes", "int", 5, "eigenpairs to report", BOTH, check=checks.at_least_one),
     Option("eigen_solver", "strs", ("jacobi", "slepc"), "eigen solvers to run, one or both",
-           BOTH,
-           choices=("jacobi", "slepc")),
+           BOTH, choices=("jacobi", "slepc")),
     Option("jacobi_tol", "float", 1e-15, "Jacobi convergence tolerance xi, eq. (4)",
            check=checks.tolerance),
     Option("jacobi_max_sweeps", "int", 50, "Jacobi sweeps before giving up (exit code 3)",
            check=checks.at_least_one),
     # -- two-phase consolidation --------------------------------------------------------
     Option("K_l", "float", 120.0e6, "liquid bulk modulus (Pa)", MOVING, checks.positive),
-    Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", MOVING,
-           checks.positive),
+    Option("mu_l", "float", 1.0e-3, "liquid dynamic viscosity (Pa s)", MOVING, checks.positive),
     Option("k", "float_or_floats", 2.5e-4, "hydraulic conductivity (m/s), defined with g = "
            "9.81 m/s2, per layer", MOVING, checks.positive),
     Option("gravity", "float", 0.0, "body force, acting downwards (m/s2); static: the body "
@@ -113,8 +111,7 @@ SPEC = [
            "nu / (1 - nu))", (CONSOLIDATION, STATIC), checks.nonnegative),
     Option("load", "float", 10.0e3, "surface load q on the top, downwards (Pa); dynamic: "
            "applied suddenly at t = 0, and only when given; static: raised in -mpm_load_steps "
-           "(in place of a footing), only when given",
-           MOVING + (STATIC,), checks.nonnegative),
+           "(in place of a footing), only when given", MOVING + (STATIC,), checks.nonnegative),
     Option("load_extent", "floats", (), "the loaded part x0,x1 of the top (m), e.g. a strip "
            "footing on a half model with rollers on its axis x = 0 (default: the whole top)",
            MOVING + (STATIC,), length=2),
@@ -295,8 +292,8 @@ SPEC = [
            "displacement) or rough (both)", (STATIC,), choices=("smooth", "rough")),
     Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)",
            (STATIC,), checks.positive),
-    Option("surcharge", "float", 0.0, "a pressure q0 on the top outside the footing or load "
-           "(Pa), on from the start", (STATIC,), checks.nonnegative),
+    Option("surcharge", "float", 0.0, "a pressure q0 on the top beside the footing or load "
+           "(Pa), from the start", (STATIC,), checks.nonnegative),
     Option("load_steps", "int", 20, "equal settlement steps (each halved where Newton does "
            "not converge)", (STATIC,), checks.at_least_one),
     Option("bbar", "bool", True, "B-bar: each point's volume change its cell's", (STATIC,)),

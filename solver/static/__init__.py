@@ -1,7 +1,8 @@
 """The static analysis (``-mpm_analysis static``): a body of a material of the materials room
 loaded in steps, a rigid footing pushed into it to failure, Newton on PETSc SNES.
 
-- ``problem``: the nonlinear system on the material points (residual, Jacobian, B-bar);
+- ``problem``: the nonlinear system on the material points (residual, Jacobian, B-bar), the
+  state at rest and the external forces;
 - ``driver``: the analysis: the plan and the load steps;
 - ``reporting``: what it writes: the summary's ``static`` block, ``load_displacement.csv``
   and its figure, the plastic zone, the point fields for ParaView.

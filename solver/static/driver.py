@@ -1,16 +1,20 @@
 """The load-stepped static analysis (``-mpm_analysis static``): a rigid strip footing pushed
-into a weightless body to ``-mpm_footing_settlement`` in ``-mpm_load_steps`` steps, Newton
-on SNES at each (steps cut in half and retried where it does not converge).
+to ``-mpm_footing_settlement`` (or a flexible load ``-mpm_load`` raised: load control) in
+``-mpm_load_steps`` steps, on a weightless body or one at rest under gravity, with a
+surcharge beside it or none; Newton on SNES at each step (steps cut in half and retried
+where it does not converge).
 
 A halved step doubles again after a step that Newton takes in fewer than GROW_BELOW
-iterations, up to the asked length. Writes ``load_displacement.csv`` (``settlement_m``, ``pressure_pa``: the mean contact
-pressure, from the nodal internal forces under the footing), its figure with the reference
-where the scene has one, and the summary's ``static`` block: ``bearing_capacity_pa`` (the
-peak, or the plateau: the last step) and how it was picked, ``reference_pa`` and
-``reference`` (Prandtl's (2 + pi) c_u for Tresca soil), ``error_pct``, ``newton_iterations``
-and ``newton_residuals`` (per step, the residual norms).
+iterations, up to the asked length. Writes ``load_displacement.csv`` (``settlement_m``,
+``pressure_pa``: the mean contact pressure, from the nodal internal forces under the
+footing net of the constant external ones; under load control the mean settlement under
+the load and the load), its figure with the reference where the scene has one, and the
+summary's ``static`` block: ``bearing_capacity_pa`` (the peak, the plateau: the last step,
+or under load control the last load carried) and how it was picked, ``reference_pa`` and
+``reference`` (Prandtl's (2 + pi) c_u + q0 for Tresca soil, Prandtl-Reissner's N_c c +
+N_q q0 for associated c-phi soil, weightless), ``error_pct``, ``newton_iterations`` and
+``newton_residuals`` (per step, the residual norms).
 """
-
 from __future__ import annotations
 
 import math
@@ -27,11 +31,11 @@ from ..io.output import Outputs
 from ..materials import catalog
 from ..model.grid import Grid
 from ..model.points import place
-from ..model.scene import Body, Loading, geostatic_fields, top_forces
+from ..model.scene import Body, Loading
 from ..model.soil import Ground
 from ..run.record import Record, guarded, owned
 from . import reporting
-from .problem import StaticProblem
+from .problem import StaticProblem, at_rest
 
 CUTS = 6            # halvings of a step before the run gives up
 GROW_BELOW = 6      # a step that converged in fewer Newton iterations doubles the next
@@ -138,42 +142,6 @@ def _held(grid, plan) -> tuple:
     return held.ravel(), loaded.ravel()
 
 
-def _start(grid, points, plan) -> tuple:
-    """(the points' stress at the start (np, 3), Pa: at rest under gravity and the
-    surcharge; the constant external forces and the load's, over the owned DOFs, N per m
-    depth: the soil's weight (buoyant under the water table at the surface, dry with
-    -mpm_rho_l 0), the surcharge on the top outside the footing or load, the load q on its
-    extent), as a function of the problem (for its point forces)."""
-    soil, loading, q0 = plan.soil, plan.loading, plan.surcharge
-    x0 = points.get("x")
-    sigma0 = geostatic_fields(x0, plan.body, soil, loading)[1] if loading.gravity > 0 \
-        else np.zeros((len(x0), 3))
-    K0 = loading.K0[0] if isinstance(loading.K0, tuple) else loading.K0
-    K0 = soil.soils[0].nu / (1 - soil.soils[0].nu) if math.isnan(K0) else K0
-    sigma0[:, 1] -= q0
-    sigma0[:, 0] -= K0 * q0
-    I, J = grid.owned_lattice()
-    top = J == grid.nodes[1] - 1
-
-    def forces(problem):
-        constant, load = np.zeros(2 * len(I)), np.zeros(2 * len(I))
-        if loading.gravity > 0:
-            layers = soil.soils
-            layer = soil.layer_of(x0[:, 1]) if len(layers) > 1 else np.zeros(len(x0), int)
-            gamma = np.array([(1 - s.porosity) * (s.rho_s - s.rho_l) * loading.gravity
-                              for s in layers])[layer]
-            constant += problem.point_forces(-points.get("volume") * gamma)
-        if q0:
-            sides = top_forces(grid, Loading(load=q0)) - \
-                top_forces(grid, Loading(load=q0, extent=plan.footing))
-            constant[2 * np.flatnonzero(top) + 1] -= sides[I[top]]
-        if plan.load_control:
-            load[2 * np.flatnonzero(top) + 1] -= top_forces(grid, loading)[I[top]]
-        return constant, load
-
-    return sigma0, forces
-
-
 def _analysis(plan, comm, record, stack) -> None:
     record.begin(plan.outputs, None, plan.provenance)
     body = plan.body
@@ -182,7 +150,8 @@ def _analysis(plan, comm, record, stack) -> None:
     points = place(grid, body.ppc, 1.0, "uniform")
     stack.callback(points.destroy)
     held, loaded = _held(grid, plan)
-    sigma0, forces = _start(grid, points, plan)
+    sigma0, forces = at_rest(grid, points, plan.body, plan.soil, plan.loading,
+                             plan.surcharge, plan.footing)
     problem = StaticProblem(grid, points, plan.material, held, loaded, plan.bbar, sigma0,
                             plan.load_control)
     stack.callback(problem.destroy)

@@ -14,12 +14,15 @@ stays 0), which keeps near-incompressible and isochoric plastic flow from lockin
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from petsc4py import PETSc
 
 from ..materials.history import in_plane
 from ..materials.model import tangent
 from ..model import assembly
+from ..model.scene import Loading, geostatic_fields, top_forces
 
 PLANE = [0, 1, 3]          # the (xx, yy, xy) rows of the materials' four components
 
@@ -222,3 +225,38 @@ class StaticProblem:
                     self.loc, self.K, self.free, self.J):
             if obj is not None:
                 obj.destroy()
+
+
+def at_rest(grid, points, body, soil, loading, q0: float, loaded: tuple) -> tuple:
+    """(the points' stress at the start (np, 3), Pa: at rest under gravity and the
+    surcharge q0 (Pa); the function of a StaticProblem that gives the constant external
+    forces and the load's, over the owned DOFs, N per m depth: the soil's weight (buoyant
+    under the water table at the surface, dry with rho_l 0), the surcharge on the top
+    outside the footing or load (``loaded``: x0, x1 in m), the load q on its extent)."""
+    x0 = points.get("x")
+    sigma0 = geostatic_fields(x0, body, soil, loading)[1] if loading.gravity > 0 \
+        else np.zeros((len(x0), 3))
+    K0 = loading.K0[0] if isinstance(loading.K0, tuple) else loading.K0
+    K0 = soil.soils[0].nu / (1 - soil.soils[0].nu) if math.isnan(K0) else K0
+    sigma0[:, 1] -= q0
+    sigma0[:, 0] -= K0 * q0
+    I, J = grid.owned_lattice()
+    top = J == grid.nodes[1] - 1
+
+    def forces(problem):
+        constant, load = np.zeros(2 * len(I)), np.zeros(2 * len(I))
+        if loading.gravity > 0:
+            layers = soil.soils
+            layer = soil.layer_of(x0[:, 1]) if len(layers) > 1 else np.zeros(len(x0), int)
+            gamma = np.array([(1 - s.porosity) * (s.rho_s - s.rho_l) * loading.gravity
+                              for s in layers])[layer]
+            constant += problem.point_forces(-points.get("volume") * gamma)
+        if q0:
+            sides = top_forces(grid, Loading(load=q0)) - \
+                top_forces(grid, Loading(load=q0, extent=loaded))
+            constant[2 * np.flatnonzero(top) + 1] -= sides[I[top]]
+        if loading.load > 0:
+            load[2 * np.flatnonzero(top) + 1] -= top_forces(grid, loading)[I[top]]
+        return constant, load
+
+    return sigma0, forces
