@@ -154,3 +154,26 @@ def test_the_clay_footing_scene_consolidates_and_yields(cli, tmp_path):
     _, data, _ = mesh.read_data(mesh.num_steps - 1)
     assert np.max(data["plastic_multiplier"]) > 0 and "yielding" in data
     assert np.all(data["preconsolidation_pressure"] > 0)
+
+
+LAYERED = ["-options_file", "cases/consolidation-strip-layered.opts", "-mpm_cells", "8,4",
+           "-mpm_figures", "0", "-mpm_fe_reference", "0", "-mpm_Tv_end", "0.05",
+           "-mpm_Tv_report", "0.05"]
+
+
+def test_each_layer_takes_its_own_material(cli, tmp_path):
+    """-mpm_material per layer: the layered strip with elastic silty sand over clay of
+    Mohr-Coulomb (c 3 kPa, phi 20 degrees) yields in the clay alone (the plastic
+    multiplier zero in the top 0.5 m); and a list of the wrong length is one line, exit 2."""
+    check_ok(cli(LAYERED + ["-mpm_material", "elastic,mohr-coulomb", "-mpm_cohesion", "0,3e3",
+                            "-mpm_friction_angle", "0,20"], out_dir=tmp_path / "run"))
+    mesh = meshio.xdmf.TimeSeriesReader(str(tmp_path / "run" / "points.xdmf"))
+    points, _ = mesh.read_points_cells()
+    _, data, _ = mesh.read_data(mesh.num_steps - 1)
+    eps = np.ravel(data["plastic_multiplier"])
+    sand = points[:, 1] > 1.5
+    assert np.all(eps[sand] == 0) and eps[~sand].max() > 0
+    res = cli(LAYERED + ["-mpm_material", "elastic,mohr-coulomb,tresca"],
+              out_dir=tmp_path / "bad")
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1
+    assert "-mpm_material: 3 values for 2 layer(s)" in res.stderr

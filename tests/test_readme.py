@@ -108,7 +108,7 @@ def _reference_words(p) -> set:
             return {"solver/references/waves.py", "Terzaghi"}
         return {"Jacobi", "layered rod"} if p.rayleigh else \
             {"solver/references/site.py", "Jacobi"}
-    if p.material != "elastic":
+    if set(p.material if isinstance(p.material, tuple) else (p.material,)) != {"elastic"}:
         # Every reference of a consolidation scene is linear elastic: none for soil that
         # yields (solver/consolidation/setup.py).
         return {"none"}

@@ -93,7 +93,7 @@ def validate(p) -> tuple:
     check_count("K0", p.K0, p.layers)
     recipe = catalog.Recipe.from_options(p)
     materials(recipe, ground)
-    if recipe.name == "mcc" and not geostatic:
+    if "mcc" in recipe.names and not geostatic:
         raise InputError("-mpm_material mcc: needs -mpm_initial_state geostatic (Cam Clay's "
                          "stiffness and strength grow from the effective stress at rest)")
     return p, notes
@@ -101,15 +101,13 @@ def validate(p) -> tuple:
 
 def materials(recipe, ground):
     """One material per layer (each layer's E and nu), or None for linear elastic soil."""
-    if recipe.elastic:
-        return None
-    return tuple(recipe.make(s.E, s.nu) for s in ground.soils)
+    return None if recipe.elastic else recipe.per_layer(ground.soils)
 
 
 def _linear_only(refs, recipe):
     """The references of a yielding soil: none (every one of them is linear elastic)."""
-    why = (f"the soil yields (-mpm_material {recipe.name}) and every reference here is "
-           "linear elastic")
+    why = (f"the soil yields (-mpm_material {','.join(recipe.names)}) and every reference "
+           "here is linear elastic")
     return dataclasses.replace(refs, why=why, why_degree=why, drained=(), fe_why=why)
 
 
@@ -185,7 +183,7 @@ def set_up(p, comm, record, owned) -> tuple:
                 restart=p.restart, resumed_id=ckpt.run_id if ckpt else None, goal=goal,
                 target_error=p.target_error, monitor_x=monitor[0], probes=probes,
                 method=method, stabilize=projects(p.pressure_stabilization, p.element),
-                materials=materials(recipe, ground), material=recipe.name)
+                materials=materials(recipe, ground), material=",".join(recipe.names))
     print_plan(comm, plan, points.n_global)
     return plan, grid, points, state
 

@@ -40,7 +40,8 @@ BC_CHOICES = ("none", "x", "y", "xy")
 class Option:
     name: str            # without the prefix
     kind: str            # "str", "int", "float", "bool", "ints", "floats", "strs",
-    #                      "float_or_floats" (one value: a float; several: a tuple, per layer)
+    #                      "float_or_floats" (one value: a float; several: a tuple, per layer),
+    #                      "str_or_strs" (the same for names)
     default: object
     help: str
     used_by: tuple = ANALYSES
@@ -262,25 +263,24 @@ SPEC = [
     Option("record_dt", "float", 0.005, "time between recorded samples (s; the time step "
            "is a divisor of it)", (DYNAMIC,), checks.positive),
     # -- materials, soil tests and the static analysis ------------------------------------
-    Option("material", "str", "elastic", "the soil's model: elastic, tresca (undrained "
+    Option("material", "str_or_strs", "elastic", "the soil's model: elastic, tresca (undrained "
            "strength -mpm_cohesion, total stress), mohr-coulomb, drucker-prager (matched to "
-           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay)", MATERIAL,
-           choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")),
-    Option("cohesion", "float", 0.0, "cohesion c (Pa); tresca: the undrained strength c_u",
-           MATERIAL, checks.nonnegative),
-    Option("friction_angle", "float", 0.0, "friction angle phi (degrees)", MATERIAL,
-           checks.angle),
-    Option("dilation_angle", "float", float("nan"), "dilation angle psi (degrees; default: "
-           "phi, associated flow)", MATERIAL, checks.angle),
+           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay); consolidation: per layer",
+           MATERIAL, choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")),
+    Option("cohesion", "float_or_floats", 0.0, "cohesion c (Pa); tresca: the undrained "
+           "strength c_u; consolidation: per layer", MATERIAL, checks.nonnegative),
+    Option("friction_angle", "float_or_floats", 0.0, "friction angle phi (degrees); "
+           "consolidation: per layer", MATERIAL, checks.angle),
+    Option("dilation_angle", "float_or_floats", float("nan"), "dilation angle psi (degrees; "
+           "default: phi, associated flow); consolidation: per layer", MATERIAL, checks.angle),
     Option("mcc_M", "float", 1.0, "mcc: critical state slope in p'-q", MATERIAL, checks.positive),
     Option("mcc_lambda", "float", 0.2, "mcc: compression slope, e-ln p'", MATERIAL, checks.positive),
     Option("mcc_kappa", "float", 0.04, "mcc: swelling slope in e-ln p'", MATERIAL, checks.positive),
     Option("void_ratio", "float", float("nan"), "mcc: void ratio e0", MATERIAL, checks.positive),
-    Option("mcc_ocr", "float", 1.0, "mcc: overconsolidation ratio p_c / p'_0", MATERIAL,
-           lambda v: None if v >= 1 else "must be at least 1"),
-    Option("soiltest", "str", "triaxial-drained", "the soil test", (SOILTEST,),
-           choices=("triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear",
-                    "oedometer")),
+    Option("mcc_ocr", "float", 1.0, "mcc: overconsolidation ratio p_c / p'_0", MATERIAL, lambda v:
+           None if v >= 1 else "must be at least 1"),
+    Option("soiltest", "str", "triaxial-drained", "the soil test", (SOILTEST,), choices=(
+        "triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear", "oedometer")),
     Option("confining", "float", 100e3, "the soil test's initial isotropic effective stress, "
            "drained its cell pressure (Pa)", (SOILTEST,), checks.nonnegative),
     Option("strain_end", "float", 0.1, "the soil test's axial (simple shear: shear) strain "
@@ -348,12 +348,13 @@ def _parse_int(text):
 def _parse(opt: Option, text: str):
     scalar = {"int": _parse_int, "ints": _parse_int,
               "float": checks.parse_float, "floats": checks.parse_float}.get(opt.kind, str.strip)
-    if opt.kind in ("ints", "floats", "strs", "float_or_floats"):
+    if opt.kind in ("ints", "floats", "strs", "float_or_floats", "str_or_strs"):
         parts = [p.strip() for p in text.split(",")]
         if any(p == "" for p in parts):
             raise ValueError("malformed list (empty entry)")
-        if opt.kind == "float_or_floats":    # one value stays a float, as a "float" option's
-            values = tuple(checks.parse_float(p) for p in parts)
+        if opt.kind in ("float_or_floats", "str_or_strs"):  # one value stays a scalar
+            values = tuple(checks.parse_float(p) if opt.kind == "float_or_floats" else p
+                           for p in parts)
             return values[0] if len(values) == 1 else values
         value = tuple(scalar(p) for p in parts)
         if opt.length and len(value) != opt.length:

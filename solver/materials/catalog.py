@@ -55,13 +55,13 @@ def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0
 @dataclass(frozen=True)
 class Recipe:
     """A material named and parametrised once, made for each layer's elasticity: ``name``
-    (NAMES), cohesion (Pa), phi and psi (degrees; psi NaN: phi), the Cam Clay parameters
-    ``mcc`` ({M, lam, kappa, e0, ocr})."""
+    (NAMES), cohesion (Pa), phi and psi (degrees; psi NaN: phi), each one value or a tuple
+    with one per layer; the Cam Clay parameters ``mcc`` ({M, lam, kappa, e0, ocr})."""
 
-    name: str = "elastic"
-    cohesion: float = 0.0
-    phi: float = 0.0
-    psi: float = math.nan
+    name: object = "elastic"
+    cohesion: object = 0.0
+    phi: object = 0.0
+    psi: object = math.nan
     mcc: dict = field(default_factory=dict)
 
     @classmethod
@@ -72,9 +72,44 @@ class Recipe:
                     "e0": p.void_ratio, "ocr": p.mcc_ocr})
 
     @property
+    def names(self) -> tuple:
+        """The material's name per layer given (one: every layer's)."""
+        return self.name if isinstance(self.name, tuple) else (self.name,)
+
+    @property
     def elastic(self) -> bool:
-        return self.name == "elastic"
+        return all(n == "elastic" for n in self.names)
+
+    @property
+    def layered(self) -> bool:
+        return any(isinstance(v, tuple) for v in (self.name, self.cohesion, self.phi,
+                                                  self.psi))
+
+    def layer(self, i: int) -> "Recipe":
+        """Layer i's recipe (from the surface down)."""
+        def pick(v):
+            return v[i] if isinstance(v, tuple) else v
+        return Recipe(pick(self.name), pick(self.cohesion), pick(self.phi), pick(self.psi),
+                      self.mcc)
 
     def make(self, E: float, nu: float):
-        """The material of Young's modulus E (Pa) and Poisson's ratio nu (:func:`make`)."""
+        """The material of Young's modulus E (Pa) and Poisson's ratio nu (:func:`make`); one
+        material only (InputError for a list: the analyses of one material take one)."""
+        if self.layered or isinstance(E, tuple) or isinstance(nu, tuple):
+            raise InputError("-mpm_material, -mpm_E, -mpm_nu: one material here, one value "
+                             "each (per layer only in the consolidation analysis)")
         return make(self.name, E, nu, self.cohesion, self.phi, self.psi, self.mcc)
+
+    def per_layer(self, soils) -> tuple:
+        """One material per layer of ``soils`` (each layer's E and nu); InputError for
+        lists of another length than the layers."""
+        for option, v in (("material", self.name), ("cohesion", self.cohesion),
+                          ("friction_angle", self.phi), ("dilation_angle", self.psi)):
+            if isinstance(v, tuple) and len(v) != len(soils):
+                raise InputError(f"-mpm_{option}: {len(v)} values for {len(soils)} "
+                                 "layer(s); give one value or one per layer")
+        out = []
+        for i, s in enumerate(soils):
+            r = self.layer(i)
+            out.append(make(r.name, s.E, s.nu, r.cohesion, r.phi, r.psi, r.mcc))
+        return tuple(out)

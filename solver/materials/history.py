@@ -21,7 +21,7 @@ def fields(recipe) -> dict:
     committed stress's zz (Pa) and each state variable (``state_NAME``)."""
     if recipe is None or recipe.elastic:
         return {}
-    names = {"plastic", "eps_p"} | ({"p_c"} if recipe.name == "mcc" else set())
+    names = {"plastic", "eps_p"} | ({"p_c"} if "mcc" in recipe.names else set())
     return {"stress_zz": 1, **{f"state_{n}": 1 for n in sorted(names)}}
 
 
@@ -51,7 +51,8 @@ class Layered:
     def update(self, stress, d_strain, state) -> tuple:
         """(stress, state) after the strain increments ``d_strain`` (np, 4)."""
         new = np.empty_like(stress)
-        out = {k: np.empty_like(v) for k, v in state.items()}
+        # Copies: a layer's model leaves the variables of the others' as they were.
+        out = {k: v.copy() for k, v in state.items()}
         for idx, m in self.groups:
             s, st = m.update(stress[idx], d_strain[idx], {k: v[idx] for k, v in state.items()})
             new[idx] = s

@@ -61,7 +61,7 @@ class Request:
     f1_solver: tuple
     allow_unstable: bool
     cadence: tuple
-    material: str = "elastic"
+    material: tuple = ("elastic",)     # per layer
 
     @classmethod
     def from_options(cls, p) -> "Request":
@@ -70,7 +70,7 @@ class Request:
                    p.load_ramp, p.dt, p.dt_safety, p.stability_analysis,
                    (p.eigen_solver[0], p.jacobi_tol, p.jacobi_max_sweeps), p.allow_unstable,
                    (p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress),
-                   p.material)
+                   p.material if isinstance(p.material, tuple) else (p.material,))
 
 
 def check(req: Request) -> None:
@@ -78,7 +78,7 @@ def check(req: Request) -> None:
     ``-mpm_scheme`` names (options of a scene file are only noted: :func:`notes`)."""
     other = EXPLICIT_ONLY if req.scheme == "implicit" else \
         IMPLICIT_ONLY if req.scheme == "explicit" else ()
-    if req.scheme == "explicit" and req.material == "mcc":
+    if req.scheme == "explicit" and "mcc" in req.material:
         # The step's critical time step is -mpm_E's; Cam Clay's stiffness grows with p'.
         raise InputError("-mpm_material mcc: the explicit step's time step follows -mpm_E, "
                          "which Cam Clay's stiffness outgrows (use -mpm_scheme implicit)")
@@ -122,9 +122,9 @@ def choose(req: Request, soil, body, scheme, refs, isochrones=()) -> tuple:
     """(explicit | implicit, the line that says why)."""
     if req.scheme != "auto":
         return req.scheme, f"Scheme: {req.scheme} (-mpm_scheme {req.scheme})"
-    if req.material != "elastic":
+    if set(req.material) != {"elastic"}:
         return "implicit", (f"Scheme: implicit (-mpm_scheme auto: the soil yields, "
-                            f"-mpm_material {req.material}: Newton at each stage to 1e-10 of "
+                            f"-mpm_material {','.join(req.material)}: Newton at each stage to 1e-10 of "
                             "the load, where the explicit step carries inertia)")
     given = [n for n in EXPLICIT_ONLY if n in req.given]
     if given:
