@@ -269,10 +269,10 @@ SPEC = [
            MATERIAL, choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")),
     Option("cohesion", "float_or_floats", 0.0, "cohesion c (Pa); tresca: the undrained "
            "strength c_u; consolidation: per layer", MATERIAL, checks.nonnegative),
-    Option("friction_angle", "float_or_floats", 0.0, "friction angle phi (degrees); "
-           "consolidation: per layer", MATERIAL, checks.angle),
-    Option("dilation_angle", "float_or_floats", float("nan"), "dilation angle psi (degrees; "
-           "default: phi, associated flow); consolidation: per layer", MATERIAL, checks.angle),
+    Option("friction_angle", "float_or_floats", 0.0, "friction angle phi (degrees); consolidation: "
+           "per layer", MATERIAL, checks.angle),
+    Option("dilation_angle", "float_or_floats", math.nan, "dilation angle psi (degrees; default: "
+           "phi, associated flow); consolidation: per layer", MATERIAL, checks.angle),
     Option("mcc_M", "float", 1.0, "mcc: critical state slope in p'-q", MATERIAL, checks.positive),
     Option("mcc_lambda", "float", 0.2, "mcc: compression slope, e-ln p'", MATERIAL, checks.positive),
     Option("mcc_kappa", "float", 0.04, "mcc: swelling slope in e-ln p'", MATERIAL, checks.positive),
@@ -290,8 +290,7 @@ SPEC = [
            "model: 0,B/2 with rollers on x = 0)", (STATIC,), length=2),
     Option("footing_interface", "str", "smooth", "smooth (the footing holds the vertical "
            "displacement) or rough (both)", (STATIC,), choices=("smooth", "rough")),
-    Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)",
-           (STATIC,), checks.positive),
+    Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)", (STATIC,), checks.positive),
     Option("surcharge", "float", 0.0, "a pressure q0 on the top beside the footing or load "
            "(Pa), from the start", (STATIC,), checks.nonnegative),
     Option("load_steps", "int", 20, "equal settlement steps (each halved where Newton does "
