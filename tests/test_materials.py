@@ -101,3 +101,35 @@ def test_points_are_independent():
             one = {key: v[k:k + 1] for key, v in state.items()}
             alone, _ = m.update(stress[k:k + 1], d[k:k + 1], one)
             assert np.allclose(alone[0], together[k], rtol=1e-12, atol=1e-6)
+
+
+def test_a_tension_cutoff_caps_the_largest_principal_stress():
+    """Mohr-Coulomb (c 10 kPa, phi = psi = 30) with a cutoff t = 2 kPa: pulled in plane
+    strain (d eps_xx > 0 alone) sigma_xx stops at t exactly, the others at the elastic
+    share nu / (1 - nu) t of it; over 20,000 random trial stresses every return lies within
+    every plane (to 1e-9 of the stresses), and where the cutoff does not act it is the
+    return without one (to 1e-9)."""
+    m = MohrCoulomb(10e6, 0.3, 10e3, 30.0, 30.0, tension=2e3)
+    stress, state = np.zeros((1, 4)), m.initial_state(np.zeros((1, 4)))
+    for _ in range(100):
+        stress, state = m.update(stress, np.array([[2e-5, 0, 0, 0]]), state)
+    assert stress[0, 0] == pytest.approx(2e3, rel=1e-12)
+    assert stress[0, 1] == pytest.approx(0.3 / 0.7 * 2e3, rel=1e-9) and state["plastic"][0]
+    rng = np.random.default_rng(1)
+    s = np.sort(rng.normal(0, 60e3, (20000, 3)), axis=1)[:, ::-1]
+    cut, _ = m.principal_return(s)
+    plain, _ = MohrCoulomb(10e6, 0.3, 10e3, 30.0, 30.0).principal_return(s)
+    n, _, k, _ = m._planes()
+    scale = np.abs(s).max()
+    assert (cut @ n.T - k).max() <= 1e-9 * scale
+    free = plain[:, 0] <= 2e3
+    assert np.abs(cut[free] - plain[free]).max() <= 1e-9 * scale
+
+
+def test_a_tension_cutoff_on_other_models_is_refused():
+    from solver.common.errors import InputError
+    from solver.materials import catalog
+
+    with pytest.raises(InputError, match="only tresca and mohr-coulomb"):
+        catalog.make("drucker-prager", 10e6, 0.3, 1e3, 30.0, tension=1e3)
+    assert catalog.make("tresca", 10e6, 0.49, 5e3, tension=0.0).tension == 0.0

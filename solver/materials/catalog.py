@@ -3,6 +3,7 @@ naming the option): what every analysis that takes ``-mpm_material`` builds."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -16,12 +17,16 @@ NAMES = ("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")
 
 
 def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0,
-         psi: float = math.nan, mcc: dict | None = None):
+         psi: float = math.nan, mcc: dict | None = None, tension: float = math.nan):
     """The material ``name`` (NAMES) of Young's modulus E (Pa) and Poisson's ratio nu, with
-    cohesion (Pa), friction and dilation angles phi, psi (degrees; psi NaN: phi) and the
-    Cam Clay parameters ``mcc`` ({M, lam, kappa, e0, ocr}). InputError for a combination
-    that means nothing."""
+    cohesion (Pa), friction and dilation angles phi, psi (degrees; psi NaN: phi), the Cam
+    Clay parameters ``mcc`` ({M, lam, kappa, e0, ocr}) and a tension cutoff (Pa; NaN:
+    none). InputError for a combination that means nothing."""
     psi = phi if math.isnan(psi) else psi
+    if not math.isnan(tension) and name not in ("tresca", "mohr-coulomb"):
+        raise InputError(f"-mpm_tension_cutoff: only tresca and mohr-coulomb take one (not "
+                         f"{name})")
+    cut = math.inf if math.isnan(tension) else tension
     if name == "elastic":
         return Elastic(E, nu)
     if name == "tresca":
@@ -30,7 +35,7 @@ def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0
                              "strength on total stress; take mohr-coulomb for friction)")
         if cohesion <= 0:
             raise InputError("-mpm_cohesion: tresca needs the undrained strength c_u > 0")
-        return tresca(E, nu, cohesion)
+        return dataclasses.replace(tresca(E, nu, cohesion), tension=cut)
     if name in ("mohr-coulomb", "drucker-prager"):
         if psi > phi:
             raise InputError(f"-mpm_dilation_angle {psi:g}: above the friction angle {phi:g} "
@@ -38,8 +43,9 @@ def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0
         if cohesion <= 0 and phi <= 0:
             raise InputError(f"-mpm_material {name}: no strength (give -mpm_cohesion or "
                              "-mpm_friction_angle)")
-        cls = MohrCoulomb if name == "mohr-coulomb" else DruckerPrager
-        return cls(E, nu, cohesion, phi, psi)
+        if name == "drucker-prager":
+            return DruckerPrager(E, nu, cohesion, phi, psi)
+        return MohrCoulomb(E, nu, cohesion, phi, psi, cut)
     if name == "mcc":
         mcc = mcc or {}
         if math.isnan(mcc.get("e0", math.nan)):
@@ -63,13 +69,14 @@ class Recipe:
     phi: object = 0.0
     psi: object = math.nan
     mcc: dict = field(default_factory=dict)
+    tension: object = math.nan
 
     @classmethod
     def from_options(cls, p) -> "Recipe":
         """The ``-mpm_material`` options of ``p``."""
         return cls(p.material, p.cohesion, p.friction_angle, p.dilation_angle,
                    {"M": p.mcc_M, "lam": p.mcc_lambda, "kappa": p.mcc_kappa,
-                    "e0": p.void_ratio, "ocr": p.mcc_ocr})
+                    "e0": p.void_ratio, "ocr": p.mcc_ocr}, p.tension_cutoff)
 
     @property
     def names(self) -> tuple:
@@ -83,14 +90,14 @@ class Recipe:
     @property
     def layered(self) -> bool:
         return any(isinstance(v, tuple) for v in (self.name, self.cohesion, self.phi,
-                                                  self.psi))
+                                                  self.psi, self.tension))
 
     def layer(self, i: int) -> "Recipe":
         """Layer i's recipe (from the surface down)."""
         def pick(v):
             return v[i] if isinstance(v, tuple) else v
         return Recipe(pick(self.name), pick(self.cohesion), pick(self.phi), pick(self.psi),
-                      self.mcc)
+                      self.mcc, pick(self.tension))
 
     def make(self, E: float, nu: float):
         """The material of Young's modulus E (Pa) and Poisson's ratio nu (:func:`make`); one
@@ -98,18 +105,20 @@ class Recipe:
         if self.layered or isinstance(E, tuple) or isinstance(nu, tuple):
             raise InputError("-mpm_material, -mpm_E, -mpm_nu: one material here, one value "
                              "each (per layer only in the consolidation analysis)")
-        return make(self.name, E, nu, self.cohesion, self.phi, self.psi, self.mcc)
+        return make(self.name, E, nu, self.cohesion, self.phi, self.psi, self.mcc,
+                    self.tension)
 
     def per_layer(self, soils) -> tuple:
         """One material per layer of ``soils`` (each layer's E and nu); InputError for
         lists of another length than the layers."""
         for option, v in (("material", self.name), ("cohesion", self.cohesion),
-                          ("friction_angle", self.phi), ("dilation_angle", self.psi)):
+                          ("friction_angle", self.phi), ("dilation_angle", self.psi),
+                          ("tension_cutoff", self.tension)):
             if isinstance(v, tuple) and len(v) != len(soils):
                 raise InputError(f"-mpm_{option}: {len(v)} values for {len(soils)} "
                                  "layer(s); give one value or one per layer")
         out = []
         for i, s in enumerate(soils):
             r = self.layer(i)
-            out.append(make(r.name, s.E, s.nu, r.cohesion, r.phi, r.psi, r.mcc))
+            out.append(make(r.name, s.E, s.nu, r.cohesion, r.phi, r.psi, r.mcc, r.tension))
         return tuple(out)

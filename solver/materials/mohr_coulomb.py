@@ -17,6 +17,14 @@ keeps its principal directions, and every face of the pyramid is a plane, so the
 
 D is the principal elasticity lambda 1 1^T + 2 G I. Tresca (phi = psi = 0, c the undrained
 strength c_u, on total stress) has no apex; its edges always hold.
+
+A tension cutoff t (``tension``, Pa; Rankine planes s_i <= t, associated) adds three planes
+to the sector's three. Every surface is still a plane, so the return is still exact: the
+first active set, in the order of ACTIVE (faces, edges, corners), whose multipliers are
+all non-negative and whose stress lies within every plane and the sector (Koiter's rule
+for a corner: s = s_tr - sum_i dgamma_i D m_i over the active planes, A dgamma = f_tr with
+A[i, j] = n_i . D m_j). The corner where s1 = s2 = t meets Mohr-Coulomb belongs to four
+planes; any three of them with non-negative multipliers give it.
 """
 
 from __future__ import annotations
@@ -31,7 +39,10 @@ from .model import Frictional, from_principal, principal
 
 @dataclass(frozen=True)
 class MohrCoulomb(Frictional):
-    """E (Pa), nu (-), cohesion c (Pa), friction and dilation angles phi, psi (degrees)."""
+    """E (Pa), nu (-), cohesion c (Pa), friction and dilation angles phi, psi (degrees), the
+    tension cutoff (Pa; inf: none)."""
+
+    tension: float = math.inf
 
     def update(self, stress, d_strain, state):
         trial = self.predictor(stress, d_strain)
@@ -46,6 +57,8 @@ class MohrCoulomb(Frictional):
     def principal_return(self, s) -> tuple:
         """(the returned principal stresses (np, 3), the total plastic multiplier (np,))
         of trial principal stresses ``s`` (np, 3), descending."""
+        if math.isfinite(self.tension):
+            return self._with_cutoff(s)
         sf, cf = math.sin(math.radians(self.phi)), math.cos(math.radians(self.phi))
         sg = math.sin(math.radians(self.psi))
         G = self.E / (2 * (1 + self.nu))
@@ -94,6 +107,57 @@ class MohrCoulomb(Frictional):
             dgamma[left] = (p_tr - apex) / (K * 2 * sg) if sg > 0 else \
                 np.abs(s[left] - apex).max(axis=1) / (2 * G)
         return out, dgamma
+
+
+    def _planes(self) -> tuple:
+        """(normals n (6, 3), flow directions m (6, 3), constants k (6,), the principal
+        elasticity D): the Mohr-Coulomb planes of the sector (main, edge s1 = s2, edge
+        s2 = s3) and the tension planes s1, s2, s3 <= t."""
+        sf, cf = math.sin(math.radians(self.phi)), math.cos(math.radians(self.phi))
+        sg = math.sin(math.radians(self.psi))
+        G = self.E / (2 * (1 + self.nu))
+        lam = self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+        D = lam * np.ones((3, 3)) + 2 * G * np.eye(3)
+        mc = np.array([[1 + sf, 0, -1 + sf], [0, 1 + sf, -1 + sf], [1 + sf, -1 + sf, 0]])
+        flow = np.array([[1 + sg, 0, -1 + sg], [0, 1 + sg, -1 + sg], [1 + sg, -1 + sg, 0]])
+        n = np.vstack([mc, np.eye(3)])
+        m = np.vstack([flow, np.eye(3)])
+        k = np.array([2 * self.cohesion * cf] * 3 + [self.tension] * 3)
+        return n, m, k, D
+
+    def _with_cutoff(self, s) -> tuple:
+        """principal_return with the tension planes (the module docstring)."""
+        n, m, k, D = self._planes()
+        Dm = m @ D
+        A = n @ Dm.T
+        f = s @ n.T - k                                      # (np, 6)
+        scale = np.max(np.abs(s), axis=1) + abs(k[0]) + abs(self.tension)
+        out, dgamma = s.copy(), np.zeros(len(s))
+        left = (f > 1e-12 * scale[:, None]).any(axis=1)
+        for active in ACTIVE:
+            if not left.any():
+                break
+            idx = np.flatnonzero(left)
+            M = A[np.ix_(active, active)]
+            if abs(np.linalg.det(M)) < 1e-12 * np.abs(M).max() ** len(active):
+                continue
+            gam = np.linalg.solve(M, f[idx][:, active].T).T              # (k, |active|)
+            cand = s[idx] - gam @ Dm[active]
+            tol = 1e-9 * scale[idx]
+            ok = (gam >= -tol[:, None] / np.abs(A).max()).all(axis=1) \
+                & ((cand @ n.T - k) <= tol[:, None]).all(axis=1) \
+                & (cand[:, 0] >= cand[:, 1] - tol) & (cand[:, 1] >= cand[:, 2] - tol)
+            out[idx[ok]], dgamma[idx[ok]] = cand[ok], gam[ok].sum(axis=1)
+            left[idx[ok]] = False
+        if left.any():
+            raise ArithmeticError("Mohr-Coulomb with a tension cutoff: no active set held")
+        return out, dgamma
+
+
+# The active sets of the return with a tension cutoff, in the order tried: indices into
+# _planes (0 main, 1 edge s1 = s2, 2 edge s2 = s3; 3, 4, 5 the tension planes s1, s2, s3).
+ACTIVE = ([0], [3], [0, 1], [0, 2], [3, 4], [0, 3], [0, 2, 3], [0, 3, 4], [1, 3, 4],
+          [0, 1, 3], [3, 4, 5])
 
 
 def tresca(E: float, nu: float, c_u: float) -> MohrCoulomb:
