@@ -512,3 +512,37 @@ def test_block_estimate_bounds_the_measured_error_within_ten(cli, tmp_path):
     dp = np.abs(mine[:, 4] - ref[:, 4]).max()
     assert dp <= estimate <= 10 * dp, (dp, estimate)
     assert s["consolidation"]["regime"]["wave_estimate"] == "modal"
+
+
+BLOCK = ["-mpm_element", "q4", "-mpm_ppc", "2", "-mpm_cells", "8,8", "-mpm_size", "1.2,1.2",
+         "-mpm_E", "8e6", "-mpm_nu", "0.2", "-mpm_porosity", "0.4", "-mpm_rho_s", "2650",
+         "-mpm_K_l", "2e9", "-mpm_k", "2e-4", "-mpm_load", "15e3", "-mpm_gravity", "0",
+         "-mpm_drained", "left,right", "-mpm_bc_bottom", "xy", "-mpm_Tv_end", "0.125",
+         "-mpm_Tv_report", "0.05,0.125", "-mpm_drag", "implicit", "-mpm_damping", "0",
+         "-mpm_fast_damping", "0.5", "-mpm_figures", "0", "-mpm_fe_reference", "0"]
+
+
+def test_auto_on_a_body_pays_only_for_what_the_answer_needs(cli, tmp_path):
+    """The laterally drained block (Q4 8 x 8, the first report at T_dr 0.2), where S = 1
+    moves p by 0.062 % of q: auto takes S >= 1 (no Pi_S floor on a body; the drag lag at
+    6.5 / (lambda_S t_r)), so no more steps than S = 1, and p at every point at the first
+    report within the tolerance of the same run at S / 100 (measured: S = 3, 0.188 %),
+    the estimate bounding it within a factor of 10."""
+    auto = check_ok(cli(BLOCK + ["-mpm_mass_scaling", "auto"], options_file="consolidation-m1-q4",
+                        out_dir=tmp_path / "auto"))
+    S = auto["consolidation"]["mass_scaling"]
+    reg = auto["consolidation"]["regime"]
+    assert S >= 1 and reg["Pi_S_min"] == 0
+    ref = check_ok(cli(BLOCK + ["-mpm_mass_scaling", f"{S / 100:g}"],
+                       options_file="consolidation-m1-q4", out_dir=tmp_path / "ref"))
+    p_auto, p_ref = (_profile_p(tmp_path / name, 0.05) for name in ("auto", "ref"))
+    measured = np.abs(p_auto - p_ref).max()
+    estimate = max(reg["wave_error"], reg["drag_lag_error"])
+    assert measured <= reg["tolerance"] and measured <= estimate <= 10 * measured
+
+
+def _profile_p(folder, tv):
+    """p / q of every point in profiles.csv at T_v ``tv``."""
+    head = open(folder / "profiles.csv").readline().strip().split(",")
+    data = np.loadtxt(folder / "profiles.csv", delimiter=",", skiprows=1, comments="#")
+    return data[data[:, 0] == tv, head.index("p_over_q_compression_positive")]
