@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from ..materials.history import elasticity_of
 from ..model.scene import build, destroy
 from ..modal.frequency import frequencies, slepc_solve
 from ..references import analytic, layered
@@ -74,7 +75,8 @@ def references(plan, comm, rod, owned) -> dict:
     model (Gauss points) of the same mesh, and on the paper's scene its Table 3 (Hz)."""
     body, nmodes = plan.body, plan.nmodes
     fe_ppc = 2 if body.element == "q4" else 3
-    gauss = build(comm, body, plan.ground, placement="gauss", ppc=fe_ppc)
+    gauss = build(comm, body, plan.ground, placement="gauss", ppc=fe_ppc,
+                  D=elasticity_of(plan.ground))
     owned.callback(destroy, *reversed(gauss))
     _, _, Kg, Mg, _ = gauss
     # Its own options prefix: -eps_* tune the main solve, -fe_eps_* this one.

@@ -20,6 +20,7 @@ from ..common import signals
 from ..common.errors import InputError, NumericalError
 from ..io import memory, output, provenance
 from ..io.output import Outputs
+from ..materials.history import elasticity_of
 from ..model.scene import Body, build, destroy
 from ..model.soil import Ground
 from ..modal import jacobi
@@ -121,7 +122,7 @@ def _analysis(plan, comm, record, owned) -> None:
     body, ground, nmodes = plan.body, plan.ground, plan.nmodes
     memory.check(body, "jacobi" in plan.solvers)
     with PETSc.Log.Stage("Assembly"):
-        made = build(comm, body, ground)
+        made = build(comm, body, ground, D=elasticity_of(ground))
     owned.callback(destroy, *reversed(made))
     grid, points, K, M, free = made
     n = K.getSize()[0]

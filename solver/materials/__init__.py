@@ -14,7 +14,8 @@ the radial strain as both xx and zz.
 - ``drucker_prager``: the cone matched to Mohr-Coulomb in plane strain;
 - ``cam_clay``: Modified Cam Clay with a pressure-dependent bulk modulus, implicit return;
 - ``catalog``: a material from its name and parameters, checked;
-- ``history``: one material per layer over a body's points, their history in point fields;
+- ``history``: one material per layer over a body's points, their history in point fields,
+  and the linear analyses' stiffness from the elastic law (``elasticity_of``);
 - ``soiltest``: one point driven through a laboratory test's path.
 
 May import: model, common.

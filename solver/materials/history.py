@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import tangent
+from .model import Elastic, tangent
 
 PLANE = [0, 1, 3]          # the (xx, yy, xy) rows of the materials' four components
 
@@ -103,3 +103,14 @@ def write(points, stress, state) -> None:
     for k, v in state.items():
         with points.fields(f"state_{k}") as f:
             f[...] = v.reshape(f.shape)
+
+
+def elasticity_of(soil):
+    """The linear analyses' stiffness from the elastic law of this room (Elastic.plane): one
+    3 x 3 D (Pa) for one soil, or for a soil.Ground of layers a function of heights y (m)
+    giving each point's, (len(y), 3, 3)."""
+    layers = [Elastic(s.E, s.nu).plane() for s in soil.soils]
+    if len(layers) == 1:
+        return layers[0]
+    stacked = np.stack(layers)
+    return lambda y: stacked[soil.layer_of(y)]

@@ -53,6 +53,11 @@ class Elastic:
     def update(self, stress, d_strain, state):
         return self.predictor(stress, d_strain), dict(state)
 
+    def plane(self) -> np.ndarray:
+        """The in-plane 3 x 3 stiffness (Pa) on (xx, yy, 2 xy): what the linear analyses
+        (eigen, dynamic, consolidation) assemble their stiffness from."""
+        return isotropic(self.E, self.nu)[np.ix_([XX, YY, XY], [XX, YY, XY])]
+
 
 @dataclass(frozen=True)
 class Frictional(Elastic):

@@ -17,6 +17,7 @@ from petsc4py import PETSc
 from slepc4py import SLEPc
 
 from ..common.errors import NumericalError, check_converged
+from ..materials.history import elasticity_of
 from ..model import shapes
 from ..model.scene import build, destroy
 from . import jacobi
@@ -150,7 +151,7 @@ def lowest(comm, body, soil, count: int, solver: str = "jacobi", tol: float = 1e
     solver that found them): our Jacobi solver (``solver`` 'jacobi', tolerance ``tol``, at
     most ``max_sweeps``) up to ``largest`` DOFs, a dense method, else SLEPc (its options
     under ``prefix``)."""
-    made = build(comm, body, soil)
+    made = build(comm, body, soil, D=elasticity_of(soil))
     _, _, K, M, _ = made
     try:
         if solver == "jacobi" and K.getSize()[0] <= largest:

@@ -249,11 +249,13 @@ def destroy(*objects) -> None:
             obj.destroy()
 
 
-def build(comm, body: Body, soil, placement=None, ppc=None):
+def build(comm, body: Body, soil, placement=None, ppc=None, D=None):
     """Grid, points and the free-DOF K, M of ``body`` made of ``soil`` (a soil.Soil, or a
     soil.Ground of layers: each point then takes its layer's density and D; see
     :func:`assembly.stiffness_and_mass`); ``placement`` and ``ppc`` replace the body's
-    (the plain FE model: 'gauss'). The caller destroys all five."""
+    (the plain FE model: 'gauss'); ``D`` the stiffness as assembly takes it (the analyses
+    pass the materials room's, :func:`solver.materials.history.elasticity_of`; None: the
+    soil's own, the same numbers). The caller destroys all five."""
     if len(soil.soils) == 1:
         soil = soil.soils[0]
     with ExitStack() as undo:        # a failure destroys what was made before it
@@ -263,8 +265,8 @@ def build(comm, body: Body, soil, placement=None, ppc=None):
                        placement or body.placement)
         undo.callback(points.destroy)
         # One material keeps its one D: the same K, bit for bit, as before layers.
-        K, M, free = assembly.stiffness_and_mass(grid, points, soil.point_elasticity,
-                                                 body.supports)
+        K, M, free = assembly.stiffness_and_mass(
+            grid, points, soil.point_elasticity if D is None else D, body.supports)
         undo.pop_all()
     return grid, points, K, M, free
 

@@ -49,6 +49,7 @@ from petsc4py import PETSc
 
 from ..common.errors import InputError
 from ..common.linalg import direct_solver
+from ..materials.history import elasticity_of
 from ..model import scene, shapes
 from ..model.scene import Body, Loading, top_forces
 
@@ -110,7 +111,8 @@ class ShakenBody:
         periodic = sides == "periodic"
         body = dataclasses.replace(body, bcs=shaking.supports(sides))
         self.body = body
-        self.grid, self.points, K, M, self.free = scene.build(comm, body, soil)
+        self.grid, self.points, K, M, self.free = scene.build(comm, body, soil,
+                                                              D=elasticity_of(soil))
         m = self._lumped(M, K)
         M.destroy()
         idx = self.free.getIndices()

@@ -64,6 +64,7 @@ from petsc4py import PETSc
 from ..common.clock import log_event
 from ..common.errors import NumericalError
 from ..materials import history
+from ..materials.model import Elastic
 from ..model import shapes
 from ..model.scene import top_forces, water_forces
 from . import kernels
@@ -145,7 +146,7 @@ class TwoPhase:
         self.materials = materials
         # The strain increment from the kernels' elastic stress increment: D^-1 per layer.
         self._compliance = None if materials is None else \
-            np.linalg.inv(np.stack([s.elasticity() for s in soil.soils]))
+            np.linalg.inv(np.stack([Elastic(s.E, s.nu).plane() for s in soil.soils]))
         self.lumping = scheme.lumping
         # Small kinematics: shape functions at the initial positions x0 (a point's cell never
         # changes, so nothing migrates); large: at the current positions.
@@ -166,7 +167,7 @@ class TwoPhase:
         self.nf = NF + self.blend + NLS * self.layered
         self.ngf = NGL if self.layered else NG
         first = self.layers[0]
-        self.D = first.elasticity()
+        self.D = Elastic(first.E, first.nu).plane()     # the materials room's elastic law
         n = first.porosity
         self.n = n
         self.drag = first.drag_coefficient                  # eq. 12 (kg/m3/s)
@@ -307,7 +308,7 @@ class TwoPhase:
                 row[K.LGM] = layer.density * gy
                 row[K.LN] = layer.porosity
                 row[K.LCK] = layer.drag_coefficient / layer.porosity
-                row[K.LD:] = layer.elasticity().ravel()
+                row[K.LD:] = Elastic(layer.E, layer.nu).plane().ravel()
         return R
 
     def _node_data(self):

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 from petsc4py import PETSc
 
+from ...materials.model import Elastic
 from ...model import assembly
 from ...model.soil import G_REF
 
@@ -82,8 +83,9 @@ class Operators:
             len(nodes), 2 * nen), 3 * nodes + 2], axis=1).astype(PETSc.IntType)
         E_c = per_point(soil, "constrained_modulus", layer)
         self.E_c = float(np.max(E_c)) if len(E_c) else 1.0
-        D = soil.soils[0].elasticity() if len(soil.soils) == 1 else \
-            np.stack([s.elasticity() for s in soil.soils])[np.asarray(layer, dtype=int)]
+        # The elastic law of the materials room, per point in layers.
+        laws = [Elastic(s.E, s.nu).plane() for s in soil.soils]
+        D = laws[0] if len(laws) == 1 else np.stack(laws)[np.asarray(layer, dtype=int)]
         self.D = D
         self.B = assembly.strain_matrix(self.u.dNdx)
         K = assembly.stiffness_blocks(self.u, D, volume)
