@@ -16,7 +16,9 @@ the radial strain as both xx and zz.
 - ``catalog``: a material from its name and parameters, checked;
 - ``history``: one material per layer over a body's points, their history in point fields,
   and the linear analyses' stiffness from the elastic law (``elasticity_of``);
-- ``soiltest``: one point driven through a laboratory test's path.
+- ``soiltest``: one point driven through a laboratory test's path;
+- ``hencky``: the same returns at finite strain (Hencky elasticity, principal logarithmic
+  strain): the large-deformation issue's stress update, not yet wired to an analysis.
 
 May import: model, common.
 """
