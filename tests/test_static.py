@@ -190,3 +190,29 @@ def test_gravity_starts_at_rest_and_cam_clay_takes_a_footing(cli, tmp_path):
     gamma_H = 0.5 * 1650 * 9.81 * 3
     assert abs(table[0, 1]) < 1e-2 * gamma_H
     assert np.all(np.diff(table[:, 1]) > 0) and s["static"]["reference"] is None
+
+
+def test_a_restart_ends_where_the_uninterrupted_run_does(cli, tmp_path):
+    """A run to 2.5 cm with a checkpoint every 5 steps, restarted on 2 ranks with
+    -mpm_footing_settlement 0.05 (the steps keep their length): the same curve to 1e-10 and
+    the same capacity as the run straight to 5 cm (the points' stresses and plastic
+    history, the nodal state and the predictor restored). A restart that changes the
+    physics is refused in one line (exit 2)."""
+    base = ["-mpm_cells", "8,4", *Q4, "-mpm_figures", "0"]
+    full = check_ok(cli(base, options_file="footing-tresca", out_dir=tmp_path / "full"))
+    part = cli(base + ["-mpm_footing_settlement", "0.025", "-mpm_load_steps", "10",
+                       "-mpm_checkpoint_every", "5"], options_file="footing-tresca",
+               out_dir=tmp_path / "part")
+    ckpt = tmp_path / "part" / "checkpoint.npz"
+    assert part.returncode == 0 and ckpt.is_file()
+    rest = check_ok(cli(["-mpm_restart", str(ckpt), "-mpm_footing_settlement", "0.05",
+                         "-mpm_output", str(tmp_path / "rest")], ranks=2,
+                        out_dir=tmp_path / "rest", process=True))
+    a = np.loadtxt(tmp_path / "full" / "load_displacement.csv", delimiter=",", skiprows=1)
+    b = np.loadtxt(tmp_path / "rest" / "load_displacement.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(b, a, rtol=1e-10)
+    assert rest["static"]["bearing_capacity_pa"] == pytest.approx(
+        full["static"]["bearing_capacity_pa"], rel=1e-10)
+    bad = cli(["-mpm_restart", str(ckpt), "-mpm_cohesion", "5e3", "-mpm_output",
+               str(tmp_path / "bad")], out_dir=tmp_path / "bad")
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1

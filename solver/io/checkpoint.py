@@ -143,3 +143,27 @@ def scatter(points, grid, ckpt: Checkpoint, position="x"):
     for name in points.layout:
         with points.fields(name) as a:
             a[...] = mine[:, cols[name]].reshape(a.shape)
+
+
+def natural(da, vec) -> list:
+    """A DMDA global Vec in natural (rank-independent) order, on every rank (a checkpoint's
+    nodal state, collective)."""
+    from petsc4py import PETSc
+
+    nat = da.createNaturalVec()
+    da.globalToNatural(vec, nat)
+    scatter, full = PETSc.Scatter.toAll(nat)
+    scatter.scatter(nat, full, PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
+    out = full.getArray().tolist()
+    for obj in (scatter, full, nat):
+        obj.destroy()
+    return out
+
+
+def from_natural(da, values, vec) -> None:
+    """``vec`` (a DMDA global Vec) from :func:`natural`'s values (collective)."""
+    nat = da.createNaturalVec()
+    lo, hi = nat.getOwnershipRange()
+    nat.setArray(np.asarray(values, dtype=float)[lo:hi])
+    da.naturalToGlobal(nat, vec)
+    nat.destroy()

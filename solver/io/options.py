@@ -212,16 +212,16 @@ SPEC = [
            "report time stays within 0.2 % of q, docs/method.md), or a number S > 0; the "
            "wave limits grow as sqrt(S)", (CONSOLIDATION,), checks.scaling),
     Option("checkpoint_every", "int", 0, "write OUTPUT/checkpoint.npz every N steps (0: never)",
-           MOVING, checks.nonnegative),
+           MOVING + (STATIC,), checks.nonnegative),
     Option("checkpoint_seconds", "float", 0.0, "also write it every S seconds of wall time",
            MOVING, checks.nonnegative),
     Option("restart", "str", "", "continue the run stored in this checkpoint file, with its "
            "options (-mpm_restart CK alone); options beside it may change only the output, "
            "the end and report times and the cadence of fields, checkpoints and progress",
-           MOVING),
+           MOVING + (STATIC,)),
     Option("overwrite", "bool", False, "let -mpm_restart write into an -mpm_output that "
            "holds another run's results (its summary, field series or checkpoint); the "
-           "field series starts again from the checkpoint's own times", MOVING),
+           "field series starts again from the checkpoint's own times", MOVING + (STATIC,)),
     Option("progress", "float", 10.0, "seconds between progress lines (0: none)",
            MOVING, checks.nonnegative),
     # -- dynamics: the body shaken at its base (or loaded suddenly) -----------------------

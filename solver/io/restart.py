@@ -24,7 +24,7 @@ FREE_OPTIONS = {"output", "summary", "figures", "figure_format", "debug", "progr
                 "checkpoint_every", "checkpoint_seconds", "output_every", "Tv_end", "Tv_report",
                 "t_end",
                 "eigen_solver", "jacobi_tol", "jacobi_max_sweeps", "nmodes",
-                "stability_analysis", "overwrite"}
+                "stability_analysis", "overwrite", "footing_settlement"}
 
 
 def _run_of(path):

@@ -26,7 +26,7 @@ from petsc4py import PETSc
 
 from ..common import signals
 from ..common.errors import InputError, NumericalError
-from ..io import provenance
+from ..io import checkpoint, provenance
 from ..io.output import Outputs
 from ..materials import catalog
 from ..model.grid import Grid
@@ -34,7 +34,7 @@ from ..model.points import place
 from ..model.scene import Body, Loading
 from ..model.soil import Ground
 from ..run.record import Record, guarded, owned
-from . import reporting
+from . import reporting, restart
 from .problem import StaticProblem, at_rest
 
 CUTS = 6            # halvings of a step before the run gives up
@@ -62,6 +62,13 @@ class StaticPlan:
     soil: object = None
     loading: Loading = Loading(load=0.0)
     surcharge: float = 0.0
+    # Checkpoints: every N steps, the checkpoint continued ('' for a fresh run) and whether
+    # it may write over another run's results, the physics' signature, the run's options.
+    checkpoint_every: int = 0
+    restart: str = ""
+    overwrite: bool = False
+    signature: str = ""
+    recorded: dict | None = None
 
     @classmethod
     def from_options(cls, p) -> "StaticPlan":
@@ -86,7 +93,9 @@ class StaticPlan:
                    p.bbar, Outputs(p.output, p.summary or os.path.join(p.output,
                                                                        "summary.json"),
                                    p.figures, p.figure_format), provenance.options(p),
-                   Ground.from_options(p).as_material(), loading, p.surcharge)
+                   Ground.from_options(p).as_material(), loading, p.surcharge,
+                   p.checkpoint_every, p.restart, p.overwrite, checkpoint.signature(p),
+                   checkpoint.recorded(provenance.options(p)))
 
     @property
     def load_control(self) -> bool:
@@ -143,12 +152,16 @@ def _held(grid, plan) -> tuple:
 
 
 def _analysis(plan, comm, record, stack) -> None:
-    record.begin(plan.outputs, None, plan.provenance)
+    ckpt, run_id = checkpoint.take_up(plan.restart, plan.overwrite, plan.signature,
+                                      plan.outputs, comm)
+    record.begin(plan.outputs, run_id, plan.provenance)
     body = plan.body
     grid = Grid(comm, body.element, body.cells, body.size)
     stack.callback(grid.destroy)
-    points = place(grid, body.ppc, 1.0, "uniform")
+    points = place(grid, body.ppc, 1.0, "uniform", restart.fields(plan.material))
     stack.callback(points.destroy)
+    if ckpt is not None:
+        checkpoint.scatter(points, grid, ckpt, "x")
     held, loaded = _held(grid, plan)
     sigma0, forces = at_rest(grid, points, plan.body, plan.soil, plan.loading,
                              plan.surcharge, plan.footing)
@@ -159,21 +172,21 @@ def _analysis(plan, comm, record, stack) -> None:
     newton = _newton(comm, problem)
     for obj in newton:
         stack.callback(obj.destroy)
-    what = (f"a load of {plan.loading.load:g} Pa" if plan.load_control else
-            f"a {'rough' if plan.rough else 'smooth'} footing")
-    PETSc.Sys.Print(f"Static analysis: {what} {plan.footing[0]:g} to {plan.footing[1]:g} m "
-                    f"on {plan.material_name}, {body.element.upper()} {body.cells[0]} x "
-                    f"{body.cells[1]} cells, {points.n_global} points, B-bar "
-                    f"{'on' if plan.bbar else 'off'}"
-                    + (f", gravity {plan.loading.gravity:g} m/s2" if plan.loading.gravity
-                       else "") + (f", surcharge {plan.surcharge:g} Pa" if plan.surcharge
-                                   else ""), comm=comm)
-    series = reporting.FieldSeries(plan.outputs.folder, comm)
+    reporting.banner(plan, points.n_global, comm)
+    series = reporting.FieldSeries(plan.outputs.folder, comm, run_id)
     record.enter("stepping")
-    if _step(newton, problem, 0.0, 0.0) is None:
-        raise NumericalError("static: no equilibrium at the start (the weight and the "
-                             "surcharge alone fail the soil)")
-    _stepping(plan, problem, newton, points, series, comm, record)
+    if ckpt is not None:
+        progress = restart.resume(ckpt, points, problem, series, ckpt.run_id)
+        PETSc.Sys.Print(f"Restart from {plan.restart}: step {len(progress.residuals)}, "
+                        f"{progress.s:.5g} of {_end(plan):.5g}", comm=comm)
+    else:
+        if _step(newton, problem, 0.0, 0.0) is None:
+            raise NumericalError("static: no equilibrium at the start (the weight and the "
+                                 "surcharge alone fail the soil)")
+        nominal = _end(plan) / plan.steps
+        progress = restart.Progress.start(nominal, _measured(plan, problem, 0.0))
+    run = {"id": run_id, "options": plan.recorded}
+    _stepping(plan, problem, newton, (points, series, run), progress, comm, record)
     record.enter("reporting")
     reporting.plastic_zone(plan, points, problem, comm, record)
     if series.files():
@@ -181,47 +194,54 @@ def _analysis(plan, comm, record, stack) -> None:
     record.finish()
 
 
-def _stepping(plan, problem, newton, points, series, comm, record) -> None:
-    """The steps to the settlement (or the load), each halved where Newton does not
-    converge, up to CUTS times; the load-displacement curve reported (also when the run
-    gives up: exit 3)."""
-    width = plan.footing[1] - plan.footing[0]
-    q = plan.loading.load
+def _end(plan) -> float:
+    """Where the stepping ends: the settlement (m), or the load's whole share 1."""
+    return 1.0 if plan.load_control else plan.settlement
 
-    def measured(value):
-        return ((problem.settlement(), value * q) if plan.load_control else
-                (value, problem.reaction() / width))
 
-    end = 1.0 if plan.load_control else plan.settlement
+def _measured(plan, problem, value) -> tuple:
+    """(settlement (m), pressure (Pa)) of the converged state at ``value``."""
+    return ((problem.settlement(), value * plan.loading.load) if plan.load_control else
+            (value, problem.reaction() / (plan.footing[1] - plan.footing[0])))
+
+
+def _stepping(plan, problem, newton, out, pr, comm, record) -> None:
+    """The steps from ``pr`` (restart.Progress) to the end, each halved where Newton does
+    not converge, up to CUTS times; a checkpoint every -mpm_checkpoint_every steps; the
+    load-displacement curve reported (also when the run gives up: exit 3). ``out``: the
+    points, the field series and the run (id, options) a checkpoint records."""
+    points, series, run = out
+    end, q = _end(plan), plan.loading.load
     unit = "load" if plan.load_control else "settlement"
-    curve, residuals = [measured(0.0)], []
-    s, ds, last = 0.0, end / plan.steps, 0.0
-    while s < end * (1 - 1e-12):
-        step = min(ds, end - s)
-        its = _step(newton, problem, s + step, step / last if last else 0.0)
+    while pr.s < end * (1 - 1e-12):
+        step = min(pr.ds, end - pr.s)
+        its = _step(newton, problem, pr.s + step, step / pr.last if pr.last else 0.0)
         if its is None:
-            ds /= 2
-            if ds < end / plan.steps / 2 ** CUTS:
+            pr.ds /= 2
+            if pr.ds < pr.nominal / 2 ** CUTS:
                 # The converged steps are written before the run gives up (exit 3).
-                reporting.report(plan, np.array(curve), residuals, points.n_global, comm,
-                                 record, failed=True)
-                at = (f"the soil failed under {(s + step) * q:.4g} Pa (the last load carried "
-                      f"{s * q:.4g} Pa): Newton found no equilibrium" if plan.load_control
-                      else f"Newton did not converge at settlement {s + step:.4g} m")
+                reporting.report(plan, np.array(pr.curve), pr.residuals, points.n_global,
+                                 comm, record, failed=True)
+                at = (f"the soil failed under {(pr.s + step) * q:.4g} Pa (the last load "
+                      f"carried {pr.s * q:.4g} Pa): Newton found no equilibrium"
+                      if plan.load_control else
+                      f"Newton did not converge at settlement {pr.s + step:.4g} m")
                 raise NumericalError(f"static: {at}, even with steps {2 ** CUTS} times "
                                      "shorter (-mpm_snes_*, -mpm_load_steps)")
             continue
-        s, last = s + step, step
-        residuals.append(its)
+        pr.s, pr.last = pr.s + step, step
+        pr.residuals.append(its)
         if len(its) <= GROW_BELOW:       # an easy step: back towards the asked length
-            ds = min(2 * ds, end / plan.steps)
-        record.steps = len(residuals)
-        curve.append(measured(s))
-        series.write(points, problem, len(residuals), curve[-1][0])
-        PETSc.Sys.Print(f"  {unit} {s if not plan.load_control else s * q:.5g}: settlement "
-                        f"{curve[-1][0]:.5g} m, pressure {curve[-1][1]:.6g} Pa, "
-                        f"{len(its) - 1} Newton iterations", comm=comm)
-    reporting.report(plan, np.array(curve), residuals, points.n_global, comm, record)
+            pr.ds = min(2 * pr.ds, pr.nominal)
+        record.steps = len(pr.residuals)
+        pr.curve.append(_measured(plan, problem, pr.s))
+        series.write(points, problem, len(pr.residuals), pr.curve[-1][0])
+        if plan.checkpoint_every and len(pr.residuals) % plan.checkpoint_every == 0:
+            restart.save(restart.path_of(plan), comm, points, problem, pr, series, plan, run)
+        PETSc.Sys.Print(f"  {unit} {pr.s if not plan.load_control else pr.s * q:.5g}: "
+                        f"settlement {pr.curve[-1][0]:.5g} m, pressure {pr.curve[-1][1]:.6g}"
+                        f" Pa, {len(its) - 1} Newton iterations", comm=comm)
+    reporting.report(plan, np.array(pr.curve), pr.residuals, points.n_global, comm, record)
 
 
 def _newton(comm, problem) -> tuple:

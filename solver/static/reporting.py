@@ -12,26 +12,16 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..io import output
+from ..io.fields import PointSeries
 
 
-class FieldSeries:
+class FieldSeries(PointSeries):
     """The points' fields after each converged step as an XDMF + HDF5 series (rank 0
     writes; every rank gathers): positions (m), displacement (the nodal displacement at the
     points, m; 3-vectors, z = 0), the effective stress components xx, yy, zz, xy (Pa, tension
     positive), the accumulated plastic multiplier and whether the point yielded in the
-    step. The points keep their ranks and order (they do not move)."""
-
-    def __init__(self, folder, comm):
-        self.comm = comm
-        path = os.path.join(folder, "points.xdmf")
-        self.writer = output.XdmfSeries(path) if comm.getRank() == 0 else None
-
-    def files(self) -> list:
-        if self.writer is None or not self.writer.entries:
-            return []
-        folder = os.path.dirname(self.writer.path)
-        return [self.writer.path] + [os.path.join(folder, str(e[1]))
-                                     for e in self.writer.entries]
+    step. The points keep their ranks and order (they do not move). The index, its files
+    and a restart's taking it up are :class:`solver.io.fields.PointSeries`'s."""
 
     def write(self, points, problem, step: int, settlement: float):
         """The fields after step ``step``, the footing at ``settlement`` (m): the series'
@@ -55,6 +45,20 @@ class FieldSeries:
         for k, name in enumerate(("xx", "yy", "zz", "xy")):
             fields[f"effective_stress_{name}"] = (lambda k=k: whole["stress"][:, k].copy())
         self.writer.write(step, settlement, whole["x"], fields)
+
+
+def banner(plan, n_points: int, comm):
+    """The run's first line: what is pushed, on what, on which cells."""
+    body = plan.body
+    what = (f"a load of {plan.loading.load:g} Pa" if plan.load_control else
+            f"a {'rough' if plan.rough else 'smooth'} footing")
+    PETSc.Sys.Print(f"Static analysis: {what} {plan.footing[0]:g} to {plan.footing[1]:g} m "
+                    f"on {plan.material_name}, {body.element.upper()} {body.cells[0]} x "
+                    f"{body.cells[1]} cells, {n_points} points, B-bar "
+                    f"{'on' if plan.bbar else 'off'}"
+                    + (f", gravity {plan.loading.gravity:g} m/s2" if plan.loading.gravity
+                       else "") + (f", surcharge {plan.surcharge:g} Pa" if plan.surcharge
+                                   else ""), comm=comm)
 
 
 def report(plan, curve, residuals, n_points, comm, record, failed: bool = False):

@@ -36,6 +36,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ...common.clock import log_event
+from ...io import checkpoint
 from ...common.errors import NumericalError, check_converged
 from ...common.linalg import direct_solver
 from ...model.scene import destroy, geostatic_fields, top_forces, water_forces
@@ -320,22 +321,11 @@ class QuasiStatic:
     # -- checkpoints --------------------------------------------------------------------------
     def state(self) -> list:
         """The nodal state in natural order (every rank; a checkpoint's)."""
-        nat = self.ops.da.createNaturalVec()
-        self.ops.da.globalToNatural(self.y, nat)
-        scatter, full = PETSc.Scatter.toAll(nat)
-        scatter.scatter(nat, full, PETSc.InsertMode.INSERT, PETSc.ScatterMode.FORWARD)
-        out = full.getArray().tolist()
-        for obj in (scatter, full, nat):
-            obj.destroy()
-        return out
+        return checkpoint.natural(self.ops.da, self.y)
 
     def restore(self, values):
         """The nodal state of :meth:`state` (natural order), and the points' fields."""
-        nat = self.ops.da.createNaturalVec()
-        lo, hi = nat.getOwnershipRange()
-        nat.setArray(np.asarray(values, dtype=float)[lo:hi])
-        self.ops.da.naturalToGlobal(nat, self.y)
-        nat.destroy()
+        checkpoint.from_natural(self.ops.da, values, self.y)
         if self.yielding is not None:
             self.yielding.from_fields(self.points, self.y)
         self.to_points(None)
