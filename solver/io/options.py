@@ -53,8 +53,8 @@ class Option:
 SPEC = [
     Option("analysis", "str", EIGEN, "what to compute: eigen (frequencies and modes), "
            "consolidation, dynamic (the body shaken at its base or loaded suddenly, in time), "
-           "soiltest (one material point through a laboratory test), static (a footing pushed "
-           "into a weightless body in load steps)",
+           "soiltest (one material point through a laboratory test), static (a footing pushed, "
+           "or a load raised, in load steps)",
            choices=ANALYSES),
     Option("element", "str", "q4", "background cell: q4 (bilinear), q8 (serendipity), "
            "q9 (Lagrange)", choices=("q4", "q8", "q9")),
