@@ -1,5 +1,6 @@
-"""Direct linear solvers: a PETSc KSP that applies an LU factorization, its options under a
-prefix, for the static ends, the FE reference and the implicit scheme alike."""
+"""Direct solvers: a PETSc KSP that applies an LU factorization, its options under a prefix,
+for the static ends, the FE reference and the implicit scheme alike; and Newton on SNES
+over such a KSP, for the static analysis and the implicit scheme's yielding soil."""
 
 from __future__ import annotations
 
@@ -20,3 +21,24 @@ def direct_solver(comm, A, prefix: str, package: str = "mumps"):
     pc.setFactorSolverType(package)
     ksp.setFromOptions()
     return ksp
+
+
+def newton_solver(comm, prefix: str, rtol: float, atol: float, max_it: int):
+    """SNES newtonls (its line search) whose KSP is preonly with MUMPS LU, the tolerances
+    given and the residual history kept, its options read last under ``prefix``
+    (``-PREFIX_snes_*``, ``-PREFIX_ksp_*``, ...), so that the command line wins. The caller
+    sets its function and Jacobian, and destroys it."""
+    from petsc4py import PETSc
+
+    snes = PETSc.SNES().create(comm)
+    snes.setOptionsPrefix(prefix)
+    snes.setType("newtonls")
+    snes.setTolerances(rtol=rtol, atol=atol, max_it=max_it)
+    snes.setConvergenceHistory(reset=True)
+    ksp = snes.getKSP()
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    snes.setFromOptions()
+    return snes

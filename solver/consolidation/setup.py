@@ -135,6 +135,7 @@ def set_up(p, comm, record, owned) -> tuple:
     ground, body, loading = Ground.from_options(p), Body.from_options(p), Loading.from_options(p)
     soil = ground.as_material()
     recipe = catalog.Recipe.from_options(p)
+    yielding = materials(recipe, ground)
     refs = References.of(soil, loading, body)
     if not recipe.elastic:
         refs = _linear_only(refs, recipe)
@@ -165,9 +166,8 @@ def set_up(p, comm, record, owned) -> tuple:
         checkpoint.scatter(points, grid, ckpt, "x0" if scheme.kinematics == "small" else "x")
     elif loading.geostatic:
         scene.geostatic_state(points, body, soil, loading)
-    if ckpt is None and not recipe.elastic:
-        history.start(points, history.Layered(materials(recipe, ground),
-                                              history.layer_of(points)))
+    if ckpt is None and yielding is not None:
+        history.start(points, history.Layered(yielding, history.layer_of(points)))
     limits, schedule = schedules.limits_and_schedule(comm, req, method, (body, soil, scheme),
                                                      grid.h, state, ckpt is not None, refs)
     if not refs.available and not loading.self_weight and recipe.elastic:
@@ -183,7 +183,7 @@ def set_up(p, comm, record, owned) -> tuple:
                 restart=p.restart, resumed_id=ckpt.run_id if ckpt else None, goal=goal,
                 target_error=p.target_error, monitor_x=monitor[0], probes=probes,
                 method=method, stabilize=projects(p.pressure_stabilization, p.element),
-                materials=materials(recipe, ground), material=",".join(recipe.names))
+                materials=yielding, material=",".join(recipe.names))
     print_plan(comm, plan, points.n_global)
     return plan, grid, points, state
 

@@ -85,14 +85,14 @@ def start(points, layered) -> None:
     write(points, stress, layered.initial(stress))
 
 
-def read(points, layered, stress3=None) -> tuple:
-    """(stress (np, 4), state) of the points' fields, the in-plane stress ``stress3`` (np,
-    3) (Pa) in place of theirs where given."""
+def read(points, stress3=None) -> tuple:
+    """(stress (np, 4), state) of the points' fields (the state variables: every
+    ``state_NAME`` field), the in-plane stress ``stress3`` (np, 3) (Pa) in place of theirs
+    where given."""
     stress = in_plane(points.get("stress") if stress3 is None else stress3,
                       points.get("stress_zz"))
-    kinds = layered.initial(stress)
-    return stress, {k: np.ravel(points.get(f"state_{k}")).astype(v.dtype)
-                    for k, v in kinds.items()}
+    return stress, {name[len("state_"):]: np.ravel(points.get(name))
+                    for name in points.layout if name.startswith("state_")}
 
 
 def write(points, stress, state) -> None:

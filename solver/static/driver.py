@@ -26,6 +26,7 @@ from petsc4py import PETSc
 
 from ..common import signals
 from ..common.errors import InputError, NumericalError
+from ..common.linalg import newton_solver
 from ..io import checkpoint, provenance
 from ..io.output import Outputs
 from ..materials import catalog
@@ -247,23 +248,13 @@ def _stepping(plan, problem, newton, out, pr, comm, record) -> None:
 def _newton(comm, problem) -> tuple:
     """(SNES newtonls with MUMPS LU, its options under -mpm_; the solution vector; a work
     vector)."""
-    snes = PETSc.SNES().create(comm)
-    snes.setOptionsPrefix("mpm_")
-    snes.setType("newtonls")
+    snes = newton_solver(comm, "mpm_", rtol=1e-9, atol=1e-12, max_it=25)
     x = problem.u.getSubVector(problem.free)
     F = x.duplicate()
     problem.u.restoreSubVector(problem.free, x)
     snes.setFunction(problem.residual, F)
     problem.J = _pattern(problem)
     snes.setJacobian(problem.jacobian, problem.J)
-    snes.setTolerances(rtol=1e-9, atol=1e-12, max_it=25)
-    snes.setConvergenceHistory(reset=True)
-    ksp = snes.getKSP()
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType("lu")
-    pc.setFactorSolverType("mumps")
-    snes.setFromOptions()
     return snes, F.duplicate(), F.duplicate()
 
 

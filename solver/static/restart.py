@@ -59,8 +59,7 @@ def save(path, comm, points, problem, progress: Progress, series, plan, run: dic
 def resume(ckpt, points, problem, series, run_id) -> Progress:
     """The problem's stresses, history and nodal state from the checkpoint ``ckpt`` (its
     points already scattered onto ``points``), the field series taken up; the progress."""
-    layered = history.Layered([problem.material], np.zeros(points.n_local, dtype=int))
-    problem.stress, problem.state = history.read(points, layered)
+    problem.stress, problem.state = history.read(points)
     problem.trial = (problem.stress, problem.state)
     state, da = ckpt.state, problem.grid.da
     checkpoint.from_natural(da, state["u_n"], problem.u_n)

@@ -458,7 +458,7 @@ class TwoPhase:
         d = np.zeros((len(layer), 4))
         d[:, history.PLANE] = np.einsum("pij,pj->pi", self._compliance[layer],
                                         points.get("stress") - before)
-        stress, state = history.read(points, layered, before)
+        stress, state = history.read(points, before)
         history.write(points, *layered.update(stress, d, state))
 
     def _project(self):

@@ -28,6 +28,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ...common.errors import NumericalError
+from ...common.linalg import newton_solver
 from ...materials import history
 from ...materials.history import PLANE
 
@@ -48,8 +49,9 @@ class Yielding:
         self.start_stress = history.in_plane(sigma0, sigma0[:, 0])
         self.begin(self.start_stress)
         self.y_n = ops.da.createGlobalVec()
-        self.y_n.set(0.0)
         self.loc = ops.da.createLocalVec()
+        self.y_n.set(0.0)
+        self._committed(self.y_n)
         self.corr = ops.da.createGlobalVec()
         self.Kd = ops.J0.duplicate()
         self.snes = self.Jac = self.F = None
@@ -69,11 +71,15 @@ class Yielding:
         n2 = 2 * ops.u.N.shape[1]
         ops.da.globalToLocal(y, self.loc)
         u = self.loc.getArray()[ops.dofs[:, :n2]]
-        ops.da.globalToLocal(self.y_n, self.loc)
-        u_n = self.loc.getArray()[ops.dofs[:, :n2]]
         d = np.zeros((len(u), 4))
-        d[:, PLANE] = np.einsum("pij,pj->pi", ops.B, u - u_n)
+        d[:, PLANE] = np.einsum("pij,pj->pi", ops.B, u - self.u_n)
         return d, u
+
+    def _committed(self, y):
+        """y is the committed nodal state: its displacement at the points' DOFs kept."""
+        y.copy(self.y_n)
+        self.ops.da.globalToLocal(self.y_n, self.loc)
+        self.u_n = self.loc.getArray()[self.ops.dofs[:, :2 * self.ops.u.N.shape[1]]]
 
     def correction(self, y):
         """f(u) - f_0 - K u (global Vec, N per m depth) of the nodal state y, the points'
@@ -88,8 +94,7 @@ class Yielding:
         f = np.einsum("pij,pi->pj", ops.B, s)
         n2 = f.shape[1]
         arr = self.loc.getArray()
-        arr[:] = 0.0
-        np.add.at(arr, ops.dofs[:, :n2].ravel(), f.ravel())
+        arr[:] = np.bincount(ops.dofs[:, :n2].ravel(), weights=f.ravel(), minlength=arr.size)
         self.corr.set(0.0)
         ops.da.localToGlobal(self.loc, self.corr, addv=PETSc.InsertMode.ADD_VALUES)
         return self.corr
@@ -116,13 +121,13 @@ class Yielding:
     def commit(self, y):
         """The converged stage: its stresses and history the new start, y its nodal state."""
         self.stress, self.state = self.trial
-        y.copy(self.y_n)
+        self._committed(y)
 
     def reset(self, y):
         """Back to the start of :meth:`begin`'s stress (the undrained start retried in more
         increments), y the nodal state there."""
         self.begin(self.start_stress)
-        y.copy(self.y_n)
+        self._committed(y)
 
     def to_fields(self, points):
         """The committed stress and history into the point fields."""
@@ -130,8 +135,8 @@ class Yielding:
 
     def from_fields(self, points, y):
         """A restart's committed state: the points' stresses and history, the nodal y."""
-        self.begin(*history.read(points, self.layered))
-        y.copy(self.y_n)
+        self.begin(*history.read(points))
+        self._committed(y)
 
     # -- Newton ----------------------------------------------------------------------------
     def solve(self, scheme, c, held, rhs, y, when: str):
@@ -175,9 +180,8 @@ class Yielding:
             A.zeroRowsColumns(held, diag=1.0)
 
         scale = scheme.load_scale()
-        snes = self._snes(J0)
+        snes = self._snes(J0, scale)
         snes.setFunction(residual, self.F)
-        snes.setTolerances(rtol=RTOL, atol=LOAD_TOL * scale, max_it=MAX_IT)
         z = y.duplicate()
         y.copy(z)
         z.pointwiseDivide(z, d)
@@ -206,19 +210,11 @@ class Yielding:
         self.commit(y)
         return y
 
-    def _snes(self, J0):
+    def _snes(self, J0, scale: float):
+        """The Newton solver, made at the first stage (``scale``: the scaled load's size)."""
         if self.snes is None:
-            snes = PETSc.SNES().create(self.comm)
-            snes.setOptionsPrefix("mpm_")
-            snes.setType("newtonls")
-            snes.setConvergenceHistory(reset=True)
-            ksp = snes.getKSP()
-            ksp.setType("preonly")
-            pc = ksp.getPC()
-            pc.setType("lu")
-            pc.setFactorSolverType("mumps")
-            snes.setFromOptions()
-            self.snes = snes
+            self.snes = newton_solver(self.comm, "mpm_", rtol=RTOL, atol=LOAD_TOL * scale,
+                                      max_it=MAX_IT)
             self.Jac = J0.duplicate(copy=True)
             self.F = self.y_n.duplicate()
         return self.snes
