@@ -175,6 +175,17 @@ def _reference_step(grid, p, scheme, bcs, traction, st, dt, load_factor, damping
         # K_l w), w = v_l - v_s in the liquid's basis (the weak divergence), over sum N4 V;
         # held on the drained sides; back to p and grad p.
         w_l = np.einsum("pa,pai->pi", Nl, flux)     # in layers the flux over n
+        if grid.element == "q4" and len(soil.soils) == 1 and scheme.liquid_basis != "blended":
+            # The compact Darcy stencil: the points' quasi-static flux -(k / gamma_w)
+            # (grad p - rho_l g), k / gamma_w = n / drag, less the nodes' (the liquid
+            # force over sum w_l V drag / n) interpolated, with dt (K_l / n)(k / gamma_w)
+            # capped at h_min^2 / 4.
+            kg = n / drag
+            qn = G[:, 10:12] * inv(G[:, 12])[:, None]
+            dq = -kg[:, None] * (st["gradp"] - p.rho_l * gvec) - np.einsum("pa,pai->pi", Nl,
+                                                                            qn[nodes])
+            theta = np.minimum(1.0, min(grid.h) ** 2 / 4 / (dt * p.K_l / n * kg))
+            w_l = w_l + (theta / n)[:, None] * dq
         # In layers weighted by the storage n / K_l: (n / K_l) dp = -(div v_s + div q) dt.
         Vc = V * (n / p.K_l if len(soil.soils) > 1 else 1.0)
         vals = Vc[:, None] * (corner_it.N * (dt * p.K_l / n * div_s)[:, None]

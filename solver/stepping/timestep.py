@@ -255,9 +255,13 @@ def _linear_parts(grid, points, body, soil, scheme):
         Sw = Wm.T @ V
         pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
                       * (Wm * V[:, None]).T) @ pres)
-    fl = None
+    fl = compact = None
     if scheme.pressure_projection == "corner":
-        pres, fl = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread, flux)
+        pres, fl, corner = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread,
+                                            flux)
+        if grid.element == "q4" and flux is None and scheme.liquid_basis == "element":
+            compact = _compact_parts(corner, Nl, V, n, soil, mat["drag_coefficient"],
+                                     min(grid.h))
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     # sum_p V_p B_p^T sig_p as one matrix product (BLAS; einsum's loops took seconds on M3).
@@ -276,9 +280,47 @@ def _linear_parts(grid, points, body, soil, scheme):
     fixed_s = grid.constrained_mask(body.supports).reshape(-1, 2).T.ravel()
     tied = grid.constrained_mask(body.impermeable).reshape(-1, 2).T.ravel()
     free = np.flatnonzero(np.concatenate([~fixed_s, ~(tied & fixed_s)]) & np.tile(Ms > 0, 4))
-    return {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
-            "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
-            "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
+    parts = {"fm": fm, "fl": fl, "mass": [np.concatenate([a, a]) for a in (Ms, Ml, Mt, Q)],
+             "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
+             "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
+    if compact is not None:
+        # The pressure state Z = P - A U that the compact stencil adds (kernels._compact):
+        # its forces on the mixture (B^T N4 Z V) and the liquid (-N_l^T V grad N4 Z).
+        L, Lx, Ly = corner["L"], corner["Lx"], corner["Ly"]
+        pz = L * V[:, None]
+        fmz = np.vstack([Dx.T @ pz, Dy.T @ pz])
+        flz = -np.vstack([Nl.T @ (V[:, None] * Lx), Nl.T @ (V[:, None] * Ly)])
+        parts["compact"] = {**compact, "A": corner["A"][:, free], "fm": fmz, "fl": flz}
+    return parts
+
+
+def _compact_parts(corner, Nl, V, n, soil, drag, h_min) -> dict:
+    """What the compact Darcy stencil's step on the corner pressures is made of: per step
+    P += E(dt) P with E(dt) = M^-1 sum V grad N4 . c dq (kernels._compact), dq = -(k /
+    gamma_w) grad p - N_l F, F = sum N_l V (-grad p) / sum N_l V gamma_w / k (the nodes'
+    quasi-static flux), and c = dt
+    (K_l / n) min(1, cap / (dt (K_l / n)(k / gamma_w))). Returned as the matrices of the
+    operator for k / gamma_w and its cap (E is linear in P; dt enters through c)."""
+    L, Lx, Ly, held = corner["L"], corner["Lx"], corner["Ly"], corner["held"]
+    n = np.broadcast_to(np.ravel(n), V.shape)
+    kg = n / drag                                              # k / gamma_w per point
+    Minv = np.where(held, 0.0, _inv(L.T @ V))
+    Sdrag = Nl.T @ (V / kg)                                    # sum N_l V gamma_w / k
+    ops = []
+    for D in (Lx, Ly):
+        F = _inv(Sdrag)[:, None] * (Nl.T @ (V[:, None] * -D))    # nodes x P
+        dq = -kg[:, None] * D - Nl @ F                             # points x P
+        ops.append((D, dq))
+    return {"Minv": Minv, "ops": ops, "V": V, "kg": kg,
+            "Kn": soil.K_l / n, "cap": h_min * h_min / 4}
+
+
+def _compact_step(compact, dt):
+    """E(dt) (corner nodes x corner nodes) of :func:`_compact_parts`."""
+    kdp = dt * compact["Kn"]
+    c = kdp * np.minimum(1.0, compact["cap"] / (kdp * compact["kg"]))
+    E = sum(D.T @ ((compact["V"] * c)[:, None] * dq) for D, dq in compact["ops"])
+    return compact["Minv"][:, None] * E
 
 
 def _transfer_bases(grid, x, it, Nm, div, scheme, spread) -> tuple:
@@ -319,7 +361,7 @@ def _corner_pressure(grid, x, body, V, n, K_l, div, Nl, spread, flux=None):
     held = grid.constrained_mask({side: "x" for side in body.drained})[::2]
     P = np.where(held, 0.0, _inv(L.T @ Vc.ravel()))[:, None] * num
     fl = -np.vstack([Nl.T @ (V[:, None] * (Lx @ P)), Nl.T @ (V[:, None] * (Ly @ P))])
-    return L @ P, fl
+    return L @ P, fl, {"A": P, "L": L, "Lx": Lx, "Ly": Ly, "held": held}
 
 
 def _point_material(soil, y) -> dict:
@@ -353,8 +395,9 @@ def _inv(a):
     return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)
 
 
-def _accelerations(parts, dt):
-    """L_U, L_y over the free DOFs at the time step dt.
+def _accelerations(parts, dt, columns=True):
+    """L_U, L_y over the free DOFs at the time step dt (``columns`` False: L_U's columns
+    all of the forces' columns, for forces on another state).
 
     Explicit drag: a_l = (f_l - Q (y_l - y_s)) / M~_l, a_s = (f_m - M_l a_l) / M_s.
     Implicit drag (``kernels.nodal_update``): per DOF, with r = f_l - Q (y_l - y_s),
@@ -388,7 +431,7 @@ def _accelerations(parts, dt):
         for rows in (tied, tied + len(Ms2)):
             LU[rows], Ly[rows] = mix, 0.0
     sub = np.ix_(parts["free"], parts["free"])
-    return LU[sub], Ly[sub]
+    return (LU[sub] if columns else LU[parts["free"]]), Ly[sub]
 
 
 def _spectral_radius(parts, flip, dt):
@@ -399,6 +442,15 @@ def _spectral_radius(parts, flip, dt):
     S = flip * I + (1 - flip) * R @ P
     T = np.block([[I + dt * dt * LU, dt * P + dt * dt * Ly],
                   [dt * R @ LU, S + dt * R @ Ly]])
+    compact = parts.get("compact")
+    if compact is not None:
+        # The compact stencil's pressure state Z: forces on U and y, Z' = Z + E (A U + Z).
+        LZ, _ = _accelerations({**parts, "fm": compact["fm"], "fl": compact["fl"]}, dt,
+                               columns=False)
+        E = _compact_step(compact, dt)
+        nz = E.shape[0]
+        T = np.block([[T, np.vstack([dt * dt * LZ, dt * R @ LZ])],
+                      [E @ compact["A"], np.zeros((nz, m)), np.eye(nz) + E]])
     return float(np.max(np.abs(np.linalg.eigvals(T))))
 
 

@@ -68,7 +68,7 @@ from ..materials.model import Elastic
 from ..model import shapes
 from ..model.scene import top_forces, water_forces
 from . import kernels
-from .kernels import NB, NF, NG, NGL, NLS
+from .kernels import NB, NF, NLS
 from .scheme import Scheme
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
@@ -156,6 +156,14 @@ class TwoPhase:
         self.project = {"none": 0, "nodal": kernels.PNODAL,
                         "corner": kernels.PCORNER}[scheme.pressure_projection]
         self.pfields = 2 if self.project == kernels.PCORNER else 1
+        # Q4's corner pressures share their nodes with the liquid's velocity: its Darcy
+        # flux then takes the compact stencil (kernels._compact), in one soil (in layers
+        # the harmonic nodal flux made it grow on the layered column: docs/method.md).
+        self.compact = (self.project == kernels.PCORNER and grid.element == "q4"
+                        and len(soil.soils) == 1 and scheme.liquid_basis == "element")
+        # Its cap on dt (K_l / n)(k / gamma_w): h_min^2 / 4, 1 / lambda for the largest
+        # eigenvalue lambda <= 4 / h_min^2 of its operator (tests/test_compact_darcy.py).
+        self.compact_cap = min(grid.h) ** 2 / 4 if self.compact else 0.0      # m2
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
         # -mpm_lumping blended: the solid's transfer (weights and interpolation) in N_hat.
@@ -165,7 +173,7 @@ class TwoPhase:
         self.layers = soil.soils
         self.layered = len(self.layers) > 1
         self.nf = NF + self.blend + NLS * self.layered
-        self.ngf = NGL if self.layered else NG
+        self.ngf = kernels.result_fields(self.layered, self.compact)
         first = self.layers[0]
         self.D = Elastic(first.E, first.nu).plane()     # the materials room's elastic law
         n = first.porosity
@@ -276,6 +284,7 @@ class TwoPhase:
         I[K.INOWN] = self.nown
         I[K.ILAYERS] = len(self.layers) if self.layered else 0
         I[K.IWATER] = int(self._B.reshape(-1, NB)[:, 6:].any())
+        I[K.ICOMPACT] = self.compact
 
     def _reals(self):
         """The kernels' real data (kernels.R*, SI units)."""
@@ -291,6 +300,7 @@ class TwoPhase:
         R[K.RGL] = soil.rho_l * gy
         R[K.RETA], R[K.RFAST], R[K.RSLOW] = self.eta, self.fast_rate, self.slow_rate
         R[K.RBLEND] = shapes.BLEND
+        R[K.RCAP] = self.compact_cap
         R[K.RD:K.RD + 9] = self.D.ravel()
         # Partitioned directions and this rank's box of cells in cell units (+-inf at the
         # ends of the grid, where locate clips), for the cheap "does any point leave" test.
@@ -400,9 +410,10 @@ class TwoPhase:
 
     @property
     def _locgT(self):
-        """The nodal results of the last step, field-major (NG or NGL, ghosted-local nodes):
-        a_s, a_l, v_s^{k+1}, v_l^{k+1} (and in layers the Darcy flux q), x and y each (m/s2,
-        m/s; tests read them)."""
+        """The nodal results of the last step, field-major (kernels.result_fields,
+        ghosted-local nodes): a_s, a_l, v_s^{k+1}, v_l^{k+1} (and in layers the Darcy flux
+        q, with the compact stencil the lumped grad p), x and y each (m/s2, m/s, Pa/m; tests
+        read them)."""
         return self._O.reshape(self.ng, self.ngf).T
 
     # -- one step --------------------------------------------------------------------------
