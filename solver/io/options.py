@@ -196,8 +196,8 @@ SPEC = [
            (CONSOLIDATION,), choices=("auto", "small", "large")),
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
            "point), nodal (projected onto the nodal field and interpolated back), corner "
-           "(onto the bilinear field of the cells' corner nodes: a pressure of lower order "
-           "than the quadratic cells' velocities), auto (nodal for q4, corner for q8 and q9)",
+           "(onto the bilinear field of the cells' corner nodes: below the quadratic cells' "
+           "velocities; on q4 with the compact Darcy stencil), auto (corner)",
            (CONSOLIDATION,), choices=("auto", "none", "nodal", "corner")),
     Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
            "force, velocity transfers and relative motion): element (N), blended (N/2 + "

@@ -1,4 +1,5 @@
-"""Closed-form references: the vibrating 1D soil column and Terzaghi's consolidation series."""
+"""Closed-form references: the vibrating 1D soil column, Terzaghi's consolidation series and
+Xie and Leo's large-strain consolidation."""
 
 from __future__ import annotations
 
@@ -496,3 +497,28 @@ def undrained_excess(q: float, H: float, n: float, E_c: float, K_l=None, rho_s: 
     B = 1.0 if K_l is None else undrained_pressure(1.0, E_c, K_l, n)
     gamma_m = ((1 - n) * rho_s + n * rho_l) * g
     return B * q, B * q + (B * gamma_m - rho_l * g) * H
+
+
+def large_strain_column(a, t, H0: float, q: float, m_vl: float, k0: float,
+                        gamma_w: float = 9.81e3, drained=("top",)) -> tuple:
+    """Xie and Leo's (2004) large-strain consolidation of a weightless homogeneous clay
+    column under a sudden load q (Pa): (the excess pore pressure u (Pa) at the material
+    heights ``a`` (m, the heights before the load, up from the base) at time t (s), the
+    settlement (m) at t). ``a`` and ``t`` broadcast for u; the settlement follows t.
+
+    The clay's volume ratio zeta = (1 + e) / (1 + e0) = exp(-m_vl sigma') (m_vl (1/Pa)
+    constant, sigma' the Cauchy effective stress) and its permeability k = k0 zeta^2 (m/s;
+    the Gibson form with A = 2). In the material coordinate a the relative discharge is
+    -(k / gamma_w) (1 / zeta) du/da, and with u = q - sigma' Gibson's equation becomes the
+    linear diffusion d zeta / dt = c_v0 d^2 zeta / da^2, c_v0 = k0 / (gamma_w m_vl) (m2/s):
+    zeta runs from 1 (the undrained start) to exp(-m_vl q) as Terzaghi's excess does, so
+    zeta = zeta_inf + (1 - zeta_inf) P, P = :func:`column_pressure` / q at T_v = c_v0 t /
+    H0^2, u = q + ln(zeta) / m_vl, and the settlement is the integral of 1 - zeta,
+    H0 (1 - exp(-m_vl q)) U(T_v). Small strain gives m_vl q H0 at the end.
+    """
+    zeta_inf = math.exp(-m_vl * q)
+    Tv = np.asarray(t, dtype=float) * k0 / (gamma_w * m_vl) / (H0 * H0)
+    P = column_pressure(a, Tv, H0, drained, 1.0)
+    u = q + np.log(zeta_inf + (1.0 - zeta_inf) * P) / m_vl
+    settlement = H0 * (1.0 - zeta_inf) * column_degree(Tv, drained)
+    return u, settlement

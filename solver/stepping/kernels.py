@@ -24,8 +24,8 @@ Arguments, all kept between steps (no per-step temporaries):
   nfields`` stores them: the sums (NF or NF + 1 fields), the accelerations and
   velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each; NGL = 10 in layered
   material, with the Darcy flux; 2 more, the nodes' quasi-static Darcy flux, with the
-  compact stencil: :func:`result_fields`), the projected pressure increments (1 field; 2 with the
-  corner projection: sum N_Q4 V dp and its own lumped mass sum N_Q4 V) and the static data
+  compact stencil: :func:`result_fields`), the projected pressure increments (1 field; 2
+  with the corner projection: sum N_Q4 V dp and its own lumped mass sum N_Q4 V) and the static data
   (NB = 10 per owned node: the load's nodal force, then 1 or 0 for the free or fixed DOFs
   of v_s (x, y) and v_l (x, y), a v_l DOF with 0 being normal to an impermeable side and
   tied to v_s, see :func:`nodal_update`; then 1, or 0 on a drained side, where the corner
@@ -427,10 +427,10 @@ def _implicit(coef, fm, fl, vsn, vln, held_s, held_l, dt):
 @_jit
 def nodal_update(C, dt, load_factor, damping):
     """Accelerations and velocities O (owned nodes x :func:`result_fields`: in layered
-    material the Darcy flux, with the compact stencil the quasi-static one too) from the sums G (owned nodes x C[INF]): v = sum w V v / S, the load's
-    force, the hydrostatic water force on drained sides (C[IWATER]), local damping of the
-    mixture's
-    unbalanced force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
+    material the Darcy flux, with the compact stencil the quasi-static one too) from the
+    sums G (owned nodes x C[INF]): v = sum w V v / S, the load's force, the hydrostatic
+    water force on drained sides (C[IWATER]), local damping of the mixture's unbalanced
+    force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
     (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
     A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
     same a and v, zero relative flux), fixed where the solid's is. In layered material
@@ -442,7 +442,7 @@ def nodal_update(C, dt, load_factor, damping):
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
     n_cq = R[RN] / cq if cq > 0.0 else 0.0        # k / gamma_w (m2/(Pa s))
     im, ngf = nf - NLS, result_fields(layered, compact)
-    nq = invQn = 0.0
+    nq = 0.0
     for k in range(C[INOWN]):
         g, o, b = k * nf, k * ngf, k * NB
         S = G[g]
@@ -461,7 +461,6 @@ def nodal_update(C, dt, load_factor, damping):
             div_s, div_l = invMs, 1.0 / Ml if Ml > 0.0 else 0.0
             Qn = G[g + im + 3]
             nq = Q / Qn if Qn > 0.0 else 0.0
-            invQn = 1.0 / Qn if Qn > 0.0 else 0.0
         else:
             Ms, Ml, Q, Mt = cs * S, cl * Sl, cq * Sl, ct * Sl
             invMs, invMt = invS * (1.0 / cs), invSl * (1.0 / ct)
@@ -508,9 +507,10 @@ def nodal_update(C, dt, load_factor, damping):
             if layered:
                 O[o + 8 + d] = nq * (O[o + 6 + d] - O[o + 4 + d])
             if compact:
-                # The quasi-static Darcy flux (m/s): the liquid force sum N V (rho_l g -
-                # grad p), before the water and the base, over the drag sum N V gamma_w / k.
-                O[o + ngf - 2 + d] = G[g + 7 + d] * (invQn if layered else invSl * n_cq)
+                # The quasi-static Darcy flux (m/s; one soil): the liquid force sum N V
+                # (rho_l g - grad p), before the water and the base, over the drag sum
+                # N V gamma_w / k.
+                O[o + ngf - 2 + d] = G[g + 7 + d] * invSl * n_cq
 
 
 # -- grid to points -------------------------------------------------------------------------
@@ -530,7 +530,7 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
     kg = n_ / R[RCQ] if R[RCQ] > 0.0 else 0.0     # k / gamma_w = n / Q (m2/(Pa s))
     ngf = result_fields(layered is not None, compact)
-    ig = ngf - 2                                # the lumped grad p's fields
+    ig = ngf - 2                                # the nodes' quasi-static Darcy flux
     On = O.reshape((O.shape[0] // ngf, ngf))    # by node (one index check per node)
     pacc[:] = 0.0                               # (empty without the projection)
     nen = len(off)
@@ -544,7 +544,6 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     for k in range(n):
         if layered is not None:
             D, n_, cdiv, kdp, fs, fl = _layer_constants(R, int(layer[k]), blended, dt)
-            kg = 1.0 / R[NR + NL * int(layer[k]) + LCK]
         base, xn, yn = _shape(off, C, R, xr[k, 0], xr[k, 1], S)
         if hrz is not None and project:
             _hrz_weights(off, S)                  # the projection's weights only
@@ -570,7 +569,7 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
             if layered is not None:               # the Darcy flux, in the liquid's basis
                 A[rnl, 8], A[rnl, 9] = A[rnl, 8] + S[rnl, a] * h[8], A[rnl, 9] + S[rnl, a] * h[9]
                 A[rlx, 8], A[rly, 9] = A[rlx, 8] + S[rlx, a] * h[8], A[rly, 9] + S[rly, a] * h[9]
-            if compact:                           # the lumped grad p, in the liquid's basis
+            if compact:                           # the nodes' flux, in the liquid's basis
                 A[rnl, ig], A[rnl, ig + 1] = (A[rnl, ig] + S[rnl, a] * h[ig],
                                               A[rnl, ig + 1] + S[rnl, a] * h[ig + 1])
         a4, a5 = A[rs, 4], A[rs, 5]                                    # v_s^{k+1}

@@ -483,7 +483,7 @@ def _bisect_limit(parts, flip, guess, rtol=1e-4, estimate=None):
     return lo
 
 
-def _bracket(stable, estimate, step, tries=4):
+def _bracket(stable, estimate, step, tries=5):
     """(stable dt, unstable dt) around ``estimate``, the step raised to the 4th power each
     time the limit lies further; a side not found in ``tries`` steps is None (the estimate
     was poor: the wide bracket takes over)."""
