@@ -304,8 +304,10 @@ def test_refined_grids_take_the_patch_and_keep_the_limit():
     """The dense analysis of the whole grid stays for the paper's scenes
     (their limits unchanged) and refined Q4 grids (5 x 50 and beyond: 14-18 s at 8 x 80
     before) take the 4 x 10 patch and a wide one (up to 10 x 4); their limit is never
-    above the whole grid's and at most 0.1 % below it (the 5 x 4 patch: 0.07 %), computed
-    here densely on 5 x 50 cells (the explicit drag's scheme of the paper's scenes)."""
+    above the whole grid's and at most 2 % below it (0.98 of the patches' own, which were
+    0.8 % above it with Q4's compact Darcy stencil: timestep.COMPACT_PATCH; with the nodal
+    projection the 5 x 4 patch was 0.07 % below), computed here densely on 5 x 50 cells (the
+    explicit drag's scheme of the paper's scenes)."""
     from conftest import scene_options
     from petsc4py import PETSc
 
@@ -324,7 +326,7 @@ def test_refined_grids_take_the_patch_and_keep_the_limit():
     t = typed(scene_options(cells="5,50", **drag))
     patch, _ = timestep.discrete_limit(PETSc.COMM_SELF, t.body, t.soil, t.scheme)
     whole = timestep._limit_on(t.body, t.soil, t.scheme, t.body.cells, estimate=patch)
-    assert whole * (1 - 1e-3) <= patch <= whole * (1 + 2e-4)
+    assert whole * (1 - 0.02) <= patch <= whole * (1 + 2e-4)
 
 
 def test_f1_of_a_refined_grid_by_slepc_as_jacobi_would_give():

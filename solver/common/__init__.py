@@ -2,7 +2,8 @@
 
 - ``errors``: the failures the command line reports in one line, and their exit codes;
 - ``signals``: SIGTERM and SIGINT at any stage of a run;
-- ``linalg``: direct linear solvers (an LU KSP under an options prefix);
+- ``linalg``: direct linear solvers (an LU KSP under an options prefix), Newton on SNES,
+  the reciprocal of lumped masses;
 - ``clock``: a command's start and the wall time of a run's phases.
 
 May import: nothing of the package.

@@ -1,8 +1,11 @@
 """Direct solvers: a PETSc KSP that applies an LU factorization, its options under a prefix,
 for the static ends, the FE reference and the implicit scheme alike; and Newton on SNES
-over such a KSP, for the static analysis and the implicit scheme's yielding soil."""
+over such a KSP, for the static analysis and the implicit scheme's yielding soil; the
+reciprocal of lumped masses that may be empty."""
 
 from __future__ import annotations
+
+import numpy as np
 
 
 def direct_solver(comm, A, prefix: str, package: str = "mumps"):
@@ -42,3 +45,8 @@ def newton_solver(comm, prefix: str, rtol: float, atol: float, max_it: int):
     pc.setFactorSolverType("mumps")
     snes.setFromOptions()
     return snes
+
+
+def reciprocal(a):
+    """1 / a where a > 0, else 0 (the lumped masses and drags of nodes without points)."""
+    return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)

@@ -7,7 +7,9 @@ functions, and the matrices assembled over them.
 - ``assembly``: shape functions at the points, stiffness and mass matrices, lumping;
 - ``scene``: the scene as data (Body, Loading) and the models built from it;
 - ``soil``: the soil (Soil, Ground): its constituents and what follows from them;
-- ``motion``: base motions: the Ricker wavelet, a sine, a record, as functions of time.
+- ``motion``: base motions: the Ricker wavelet, a sine, a record, as functions of time;
+- ``lattice``: the uniform grid of points that flow across its cells (large
+  deformation): hat functions and quadratic B-splines, and its walls.
 
 May import: common.
 

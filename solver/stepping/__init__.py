@@ -7,10 +7,15 @@ know nothing of the run around them (the plan, the loop, the reporting).
 - ``kernels``: its compiled loops (numba, cached in this folder's __pycache__);
 - ``scheme``: the step's Scheme, ``auto`` resolved;
 - ``timestep``: critical time steps, and the step they allow;
+- ``darcy``: Q4's compact Darcy stencil as the stability analysis sees it (its cap, its
+  operator on the corner pressures);
 - ``inertia``: the inertia regime and mass scaling;
 - ``waves``: the undrained modes a sudden load sets swinging (the wave estimate);
 - ``onephase``: one phase on the nodes: the shaken body (the eigen model's K, lumped M,
-  Rayleigh damping), a rigid or compliant base, periodic or absorbing sides.
+  Rayleigh damping), a rigid or compliant base, periodic or absorbing sides;
+- ``flow``: one phase whose points flow across the cells: the explicit updated-Lagrangian
+  step (Hencky's elasticity with the materials' returns, B-splines, walls; issue 38, no
+  analysis runs it yet).
 
 May import: modal, run, io, references, materials, model, common.
 

@@ -426,23 +426,20 @@ def _implicit(coef, fm, fl, vsn, vln, held_s, held_l, dt):
 
 @_jit
 def nodal_update(C, dt, load_factor, damping):
-    """Accelerations and velocities O (owned nodes x :func:`result_fields`: in layered
-    material the Darcy flux, with the compact stencil the quasi-static one too) from the
-    sums G (owned nodes x C[INF]): v = sum w V v / S, the load's force, the hydrostatic
-    water force on drained sides (C[IWATER]), local damping of the mixture's unbalanced
-    force, explicit or implicit drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k
-    (eq. 6); a and v are zero on fixed DOFs (multiplied by the free flags: NaN stays NaN).
-    A liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
-    same a and v, zero relative flux), fixed where the solid's is. In layered material
-    the masses and drag are the node's own sums (a node on an interface has both layers'
-    points around it) and the momenta are mass-weighted (points_to_grid)."""
+    """Accelerations and velocities O (owned nodes x :func:`result_fields`) from the sums G
+    (owned nodes x C[INF]): v = sum w V v / S, the load's force, the water outside drained
+    sides (C[IWATER]), local damping of the mixture's unbalanced force, explicit or implicit
+    drag (eqs. 13, 14), v^{k+1} = v^k + dt a^k (eq. 6); a and v zero on fixed DOFs (times
+    the free flags: NaN stays NaN); in layers the Darcy flux, with the compact stencil the
+    nodes' quasi-static Darcy flux f_l / (sum N V gamma_w / k) (m/s, before the water). A
+    liquid DOF whose flag is 0 is normal to an impermeable side: tied to the solid's (the
+    same a and v, zero relative flux), fixed where the solid's is. In layers the masses and
+    drag are the node's own sums and the momenta mass-weighted (points_to_grid)."""
     nf, blend, implicit, layered = C[INF], C[IBLEND], C[IIMPL], C[ILAYERS] > 0
-    water, compact = C[IWATER], C[ICOMPACT]
+    water, compact, nq = C[IWATER], C[ICOMPACT], 0.0
     R, B, G, O = _array(C, AR), _array(C, AB), _array(C, AGO), _array(C, AOO)
     cs, cl, ct, cq = R[RCS], R[RCL], R[RCT], R[RCQ]
-    n_cq = R[RN] / cq if cq > 0.0 else 0.0        # k / gamma_w (m2/(Pa s))
     im, ngf = nf - NLS, result_fields(layered, compact)
-    nq = 0.0
     for k in range(C[INOWN]):
         g, o, b = k * nf, k * ngf, k * NB
         S = G[g]
@@ -470,6 +467,8 @@ def nodal_update(C, dt, load_factor, damping):
         for d in range(2):
             vsn, vln = G[g + 1 + d] * div_s, G[g + 3 + d] * div_l
             fm, fl = G[g + 5 + d], G[g + 7 + d]
+            if compact:                 # one soil: k / gamma_w = n / Q per volume
+                O[o + ngf - 2 + d] = fl * invSl * R[RN] / cq
             if d == 1:
                 fm += load_factor * B[b]
             if water:
@@ -506,11 +505,6 @@ def nodal_update(C, dt, load_factor, damping):
             O[o + 6 + d] = (a_l * dt + vln) * free_l
             if layered:
                 O[o + 8 + d] = nq * (O[o + 6 + d] - O[o + 4 + d])
-            if compact:
-                # The quasi-static Darcy flux (m/s; one soil): the liquid force sum N V
-                # (rho_l g - grad p), before the water and the base, over the drag sum
-                # N V gamma_w / k.
-                O[o + ngf - 2 + d] = G[g + 7 + d] * invSl * n_cq
 
 
 # -- grid to points -------------------------------------------------------------------------
@@ -520,18 +514,14 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
     FLIP/PIC blend ``flip``), stress (D d eps), pore pressure (eqs. 8-9; in layered
     material from the Darcy flux, dp = -(K_l / n) (div v_s + div q) dt; projected: nodal
     sums into ``pacc``, :func:`_to_nodes`), x += dt v_s^{k+1}, viscous stress eta div v_s,
-    fast damping, J; with the compact stencil (C[ICOMPACT]) the corner projection's Darcy
-    flux takes its gradient at the points (:func:`_compact`)."""
+    fast damping, J; the compact Darcy stencil (C[ICOMPACT], :func:`_compact`)."""
     n, project, compact = C[PN], C[IPROJ], C[ICOMPACT]
     R, O, pacc = _array(C, AR), _array(C, AOL), _array(C, APL)
     x, xr, V, vs, vl, sig, pp, J, visc, vslow, layer = _g2p_fields(C)
-    gp = _points(C, PGRADP, 2)
-    blended = blend is not None
+    gp, blended = _points(C, PGRADP, 2), blend is not None
     D, n_, cdiv, kdp, eta, fast, slow, fs, fl = _g2p_constants(R, blended, dt)
-    kg = n_ / R[RCQ] if R[RCQ] > 0.0 else 0.0     # k / gamma_w = n / Q (m2/(Pa s))
     ngf = result_fields(layered is not None, compact)
-    ig = ngf - 2                                # the nodes' quasi-static Darcy flux
-    On = O.reshape((O.shape[0] // ngf, ngf))    # by node (one index check per node)
+    On, nacc = O.reshape((O.shape[0] // ngf, ngf)), ngf if compact else NG   # by node
     pacc[:] = 0.0                               # (empty without the projection)
     nen = len(off)
     offs = carray(_on_stack(off), nen)
@@ -554,7 +544,7 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
             h = On[base + offs[a]]
             sN, sX, sY = S[SN, a], S[SX, a], S[SY, a]
             # All fields interpolated; the gradients only of the velocities (fields 4-7).
-            for f in range(NG):
+            for f in range(nacc):
                 A[SN, f] += sN * h[f]
             for f in range(4, NG):
                 A[SX, f] += sX * h[f]
@@ -569,9 +559,6 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
             if layered is not None:               # the Darcy flux, in the liquid's basis
                 A[rnl, 8], A[rnl, 9] = A[rnl, 8] + S[rnl, a] * h[8], A[rnl, 9] + S[rnl, a] * h[9]
                 A[rlx, 8], A[rly, 9] = A[rlx, 8] + S[rlx, a] * h[8], A[rly, 9] + S[rly, a] * h[9]
-            if compact:                           # the nodes' flux, in the liquid's basis
-                A[rnl, ig], A[rnl, ig + 1] = (A[rnl, ig] + S[rnl, a] * h[ig],
-                                              A[rnl, ig + 1] + S[rnl, a] * h[ig + 1])
         a4, a5 = A[rs, 4], A[rs, 5]                                    # v_s^{k+1}
         l00, l01, l10, l11 = A[SX, 4], A[SY, 4], A[SX, 5], A[SY, 5]    # grad v_s [i, j]
         dvl = A[rlx, 6] + A[rly, 7]                                    # div v_l
@@ -590,11 +577,7 @@ def grid_to_points(off, C, hrz, blend, layered, dt, flip):
         if project == PCORNER:
             terms = _corner_terms(A, rnl, layered, V[k], dt, kdp, n_)
             if compact:
-                # The point's Darcy flux -(k / gamma_w)(grad p - rho_l g) against the
-                # nodes' quasi-static one interpolated (m/s).
-                dqx = -kg * gp[k, 0] - A[rnl, ig]
-                dqy = -kg * (gp[k, 1] - R[RGL]) - A[rnl, ig + 1]
-                terms = _compact(terms, dqx, dqy, kdp * min(1.0, R[RCAP] / (kdp * kg)))
+                terms = _compact(terms, A, gp, k, R, kdp, n_)
             _to_corners(off, offs, pacc, base, xn, yn, R, divs * kdp, terms)
         elif project:
             _to_nodes(off, offs, pacc, base, S[rw], V[k], dp)
@@ -702,22 +685,27 @@ def _corner_terms(A, rnl, layered, V, dt, kdp, n_):
 
 
 @_jit
-def _compact(terms, dqx, dqy, c):
-    """:func:`_corner_terms` with the compact stencil's flux: f + c dq, dq (m/s) the
-    point's quasi-static Darcy flux -(k / gamma_w)(grad p - rho_l g) less the nodes'
-    interpolated, c = dt K_l / n (Pa s), times min(1, cap / (dt (K_l / n)(k / gamma_w))).
+def _compact(terms, A, gp, k, R, kdp, n_):
+    """:func:`_corner_terms` of point k with the compact stencil's flux: f + kdp dq, dq
+    (m/s) the point's quasi-static Darcy flux -(k / gamma_w)(grad p - rho_l g) (grad p
+    ``gp``) less the nodes' interpolated (A[SN, NG:NG + 2]; one soil: k / gamma_w = n /
+    Q), c = dt K_l / n = ``kdp`` (Pa s) times min(1, cap / (dt (K_l / n)(k / gamma_w))).
 
     Why: the liquid's nodal velocity sees grad p lumped at the nodes, and its divergence
     back at the points makes the Darcy flow's Laplacian of Q4's corner pressures the wide
     stencil G^T M^-1 G (every second node), which drains the block next to a drained side
     too slowly (4 % of q on 8 x 8 cells at T_dr 0.2). The difference takes it to the compact
-    stencil, the integral of grad N . (k / gamma_w) grad p; it vanishes for a linear p, and
-    in layers for the piecewise-linear p of a steady flow (the nodes' flux is the sum N V
-    (rho_l g - grad p) over the sum N V gamma_w / k, k's harmonic mean). It is a diffusion
-    of its own on the corner pressures, explicit, stable while dt (K_l / n)(k / gamma_w)
-    lambda <= 2 (lambda <= 4 / h_min^2 the largest eigenvalue of M^-1 (K - G^T M^-1 G)):
-    the cap h_min^2 / 4 keeps it within half that, at the price of a weaker correction
-    where dt is large (docs/method.md, "The compact Darcy stencil")."""
+    stencil, the integral of grad N . (k / gamma_w) grad p; it vanishes for a linear p. It
+    is a diffusion of its own on the corner pressures, explicit, stable alone while dt
+    (K_l / n)(k / gamma_w) lambda <= 2, lambda <= 4 / h_min^2 its largest eigenvalue: the
+    cap h_min^2 / 4 keeps it within half that, so that it never sets the time step (K_l /
+    n makes it far stiffer than consolidation), at the price of a weaker correction where
+    dt is large; the stability analysis carries it (timestep._compact_parts;
+    docs/method.md, "The compact Darcy stencil")."""
+    kg = n_ / R[RCQ]
+    dqx = -kg * gp[k, 0] - A[SN, NG]
+    dqy = -kg * (gp[k, 1] - R[RGL]) - A[SN, NG + 1]
+    c = kdp * min(1.0, R[RCAP] / (kdp * kg))
     V, fx, fy = terms
     return V, fx + c * dqx, fy + c * dqy
 

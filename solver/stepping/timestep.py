@@ -26,12 +26,14 @@ from petsc4py import PETSc
 
 from ..common import signals
 from ..common.errors import InputError, NotConverged, NumericalError
+from ..common.linalg import reciprocal
 from ..modal import frequency
 
 from ..model import assembly, shapes
 from ..model.grid import Grid
 from ..model.points import place
 from ..model.soil import Ground
+from . import darcy
 
 # Dense stability analysis of the whole grid up to this many unknowns, else on a patch: the
 # largest of the paper's scenes (M2-Q8/Q9, M3-Q4: 1640) and no more. Its cost grows as the
@@ -85,11 +87,13 @@ def discrete_limit(comm, body, soil, scheme) -> tuple:
         y' = S y + dt R a                    (FLIP / PIC velocity update, projected back)
     with R = M^-1 sum_p w m_p N_p (the point round trip, not the identity),
     S = flip I + (1 - flip) R P, and P the identity but where a liquid DOF normal to an
-    impermeable side takes the solid's velocity (``_tie``). With implicit drag L_U and L_y depend on dt (the nodal 2 x 2
-    solve of ``_accelerations``). The limit is the largest dt with spectral radius <= 1,
-    found by bisection on dense eigenvalues to 1e-4 relative. This is what the run does: on
-    M2-Q4 it gives 7.85e-5 s (runs at 7.5e-5 s are stable, at 8.0e-5 s they blow up), where a
-    grid-only symplectic Euler analysis (R = S = I) would give 9.23e-5 s.
+    impermeable side takes the solid's velocity (``_tie``). With implicit drag L_U and L_y
+    depend on dt (the nodal 2 x 2 solve of ``_accelerations``); with Q4's compact Darcy
+    stencil the state has the pressure it adds too (``darcy``). The limit is the largest dt
+    with spectral radius <= 1, found by bisection on dense eigenvalues to 1e-4 relative.
+    This is what the run does: on M2-Q4 with the nodal projection it gives 7.85e-5 s (runs
+    at 7.5e-5 s are stable, at 8.0e-5 s they blow up), where a grid-only symplectic Euler
+    analysis (R = S = I) would give 9.23e-5 s.
 
     Grids with more than ``MAX_STATE`` unknowns are analysed on a patch of at most 4 x 10
     cells of the same size and element; the instability is local to the cells. Grids with
@@ -157,10 +161,17 @@ def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
             guess = min(2 / soil.drag_rate(S), guess)
         parts = _linear_parts(grid, points, body, soil, scheme)
         limit = _bisect_limit(parts, scheme.flip, guess, estimate=estimate)
+        if "compact" in parts and tuple(cells) != tuple(body.cells):
+            limit *= COMPACT_PATCH
         if scheme.lumping == "hrz" and scheme.damping == 0:
             _check_below(parts, scheme.flip, limit)
         return limit
 
+
+# A patch's limit with Q4's compact Darcy stencil, taken at this fraction: the stencil's
+# largest eigenvalue grows with the grid towards 4 / h_min^2, so a patch's limit lies above
+# its grid's (1 x 10 cells 1.1 % above 1 x 80; 4 x 10 and 10 x 4 0.8 % above 5 x 50).
+COMPACT_PATCH = 0.98
 
 # Halvings below the limit at which a step with HRZ lumping is checked (_check_below).
 LADDER = 8
@@ -245,7 +256,7 @@ def _linear_parts(grid, points, body, soil, scheme):
     # the nodes' Darcy flux n_q (u_l - u_s), n_q = Q / sum w_l V c_q / n (kernels).
     n, flux = np.reshape(n, (-1, 1)), None
     if len(soil.soils) > 1:
-        nq = Q * _inv(Wl.T @ (mat["drag_coefficient"] / n.ravel() * V))
+        nq = Q * reciprocal(Wl.T @ (mat["drag_coefficient"] / n.ravel() * V))
         flux = nq / n                 # (K_l / n) q = K_l (n_q / n) w, per point and node
         pres = -(soil.K_l / n) * np.hstack([div - Dl * np.tile(nq, 2), Dl * np.tile(nq, 2)])
     else:
@@ -260,8 +271,8 @@ def _linear_parts(grid, points, body, soil, scheme):
         pres, fl, corner = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread,
                                             flux)
         if grid.element == "q4" and flux is None and scheme.liquid_basis == "element":
-            compact = _compact_parts(corner, Nl, V, n, soil, mat["drag_coefficient"],
-                                     min(grid.h))
+            compact = darcy.operator(corner, Nl, V, n, soil, mat["drag_coefficient"],
+                                     darcy.cap(grid.h), Dx, Dy)
     sig[:, 0] -= pres
     sig[:, 1] -= pres
     # sum_p V_p B_p^T sig_p as one matrix product (BLAS; einsum's loops took seconds on M3).
@@ -269,8 +280,8 @@ def _linear_parts(grid, points, body, soil, scheme):
     fm = -(B * V[:, None, None]).reshape(npt * ncomp, ncol).T @ sig.reshape(npt * ncomp, -1)
     if fl is None:
         fl = Dl.T @ (V[:, None] * pres)
-    Rs = _inv(Ms)[:, None] * ((Wm * ms[:, None]).T @ Ns)
-    Rl = _inv(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
+    Rs = reciprocal(Ms)[:, None] * ((Wm * ms[:, None]).T @ Ns)
+    Rl = reciprocal(Ml)[:, None] * ((Wl * ml[:, None]).T @ Nl)
     R = np.zeros((4 * nn, 4 * nn))
     for b, Rb in enumerate((Rs, Rs, Rl, Rl)):
         R[b * nn:(b + 1) * nn, b * nn:(b + 1) * nn] = Rb
@@ -284,43 +295,8 @@ def _linear_parts(grid, points, body, soil, scheme):
              "fixed_s": fixed_s, "tied": tied, "free": free, "R": R[np.ix_(free, free)],
              "P": _tie(free, tied), "implicit": scheme.drag == "implicit"}
     if compact is not None:
-        # The pressure state Z = P - A U that the compact stencil adds (kernels._compact):
-        # its forces on the mixture (B^T N4 Z V) and the liquid (-N_l^T V grad N4 Z).
-        L, Lx, Ly = corner["L"], corner["Lx"], corner["Ly"]
-        pz = L * V[:, None]
-        fmz = np.vstack([Dx.T @ pz, Dy.T @ pz])
-        flz = -np.vstack([Nl.T @ (V[:, None] * Lx), Nl.T @ (V[:, None] * Ly)])
-        parts["compact"] = {**compact, "A": corner["A"][:, free], "fm": fmz, "fl": flz}
+        parts["compact"] = {**compact, "A": compact["A"][:, free]}
     return parts
-
-
-def _compact_parts(corner, Nl, V, n, soil, drag, h_min) -> dict:
-    """What the compact Darcy stencil's step on the corner pressures is made of: per step
-    P += E(dt) P with E(dt) = M^-1 sum V grad N4 . c dq (kernels._compact), dq = -(k /
-    gamma_w) grad p - N_l F, F = sum N_l V (-grad p) / sum N_l V gamma_w / k (the nodes'
-    quasi-static flux), and c = dt
-    (K_l / n) min(1, cap / (dt (K_l / n)(k / gamma_w))). Returned as the matrices of the
-    operator for k / gamma_w and its cap (E is linear in P; dt enters through c)."""
-    L, Lx, Ly, held = corner["L"], corner["Lx"], corner["Ly"], corner["held"]
-    n = np.broadcast_to(np.ravel(n), V.shape)
-    kg = n / drag                                              # k / gamma_w per point
-    Minv = np.where(held, 0.0, _inv(L.T @ V))
-    Sdrag = Nl.T @ (V / kg)                                    # sum N_l V gamma_w / k
-    ops = []
-    for D in (Lx, Ly):
-        F = _inv(Sdrag)[:, None] * (Nl.T @ (V[:, None] * -D))    # nodes x P
-        dq = -kg[:, None] * D - Nl @ F                             # points x P
-        ops.append((D, dq))
-    return {"Minv": Minv, "ops": ops, "V": V, "kg": kg,
-            "Kn": soil.K_l / n, "cap": h_min * h_min / 4}
-
-
-def _compact_step(compact, dt):
-    """E(dt) (corner nodes x corner nodes) of :func:`_compact_parts`."""
-    kdp = dt * compact["Kn"]
-    c = kdp * np.minimum(1.0, compact["cap"] / (kdp * compact["kg"]))
-    E = sum(D.T @ ((compact["V"] * c)[:, None] * dq) for D, dq in compact["ops"])
-    return compact["Minv"][:, None] * E
 
 
 def _transfer_bases(grid, x, it, Nm, div, scheme, spread) -> tuple:
@@ -359,7 +335,7 @@ def _corner_pressure(grid, x, body, V, n, K_l, div, Nl, spread, flux=None):
     Vc = V[:, None] * (n / K_l if flux is not None else 1.0)
     num = L.T @ (-(K_l / n) * Vc * ds) + K_l * (Lx.T @ (Vc * wx) + Ly.T @ (Vc * wy))
     held = grid.constrained_mask({side: "x" for side in body.drained})[::2]
-    P = np.where(held, 0.0, _inv(L.T @ Vc.ravel()))[:, None] * num
+    P = np.where(held, 0.0, reciprocal(L.T @ Vc.ravel()))[:, None] * num
     fl = -np.vstack([Nl.T @ (V[:, None] * (Lx @ P)), Nl.T @ (V[:, None] * (Ly @ P))])
     return L @ P, fl, {"A": P, "L": L, "Lx": Lx, "Ly": Ly, "held": held}
 
@@ -391,10 +367,6 @@ def _tie(free, tied):
     return P
 
 
-def _inv(a):
-    return np.divide(1.0, a, out=np.zeros_like(a), where=a > 0)
-
-
 def _accelerations(parts, dt, columns=True):
     """L_U, L_y over the free DOFs at the time step dt (``columns`` False: L_U's columns
     all of the forces' columns, for forces on another state).
@@ -409,25 +381,25 @@ def _accelerations(parts, dt, columns=True):
     fm, fl = parts["fm"], parts["fl"]
     Ms2, Ml2, Mt2, Q2 = parts["mass"]
     if not parts["implicit"]:
-        LU_l = _inv(Mt2)[:, None] * fl
-        Ly_l = np.hstack([np.diag(_inv(Mt2) * Q2), -np.diag(_inv(Mt2) * Q2)])
-        LU = np.vstack([_inv(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
-        Ly = np.vstack([-_inv(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
+        LU_l = reciprocal(Mt2)[:, None] * fl
+        Ly_l = np.hstack([np.diag(reciprocal(Mt2) * Q2), -np.diag(reciprocal(Mt2) * Q2)])
+        LU = np.vstack([reciprocal(Ms2)[:, None] * (fm - Ml2[:, None] * LU_l), LU_l])
+        Ly = np.vstack([-reciprocal(Ms2)[:, None] * (Ml2[:, None] * Ly_l), Ly_l])
     else:
         fixed_s = parts["fixed_s"]
         Qdt = Q2 * dt
-        inv_det = _inv(Ms2 * Mt2 + Qdt * (Ms2 + Ml2))
+        inv_det = reciprocal(Ms2 * Mt2 + Qdt * (Ms2 + Ml2))
         # a_s = A_ss f_m + A_sl r, a_l = A_ls f_m + A_ll r
         A_ss, A_sl = (Mt2 + Qdt) * inv_det, -Ml2 * inv_det
         A_ls = np.where(fixed_s, 0.0, Qdt * inv_det)
-        A_ll = np.where(fixed_s, _inv(Mt2 + Qdt), Ms2 * inv_det)
+        A_ll = np.where(fixed_s, reciprocal(Mt2 + Qdt), Ms2 * inv_det)
         Ly_r = np.hstack([np.diag(Q2), -np.diag(Q2)])          # r's part on (y_s, y_l)
         LU = np.vstack([A_ss[:, None] * fm + A_sl[:, None] * fl,
                         A_ls[:, None] * fm + A_ll[:, None] * fl])
         Ly = np.vstack([A_sl[:, None] * Ly_r, A_ll[:, None] * Ly_r])
     tied = np.flatnonzero(parts["tied"])
     if len(tied):
-        mix = _inv(Ms2 + Ml2)[tied, None] * fm[tied]
+        mix = reciprocal(Ms2 + Ml2)[tied, None] * fm[tied]
         for rows in (tied, tied + len(Ms2)):
             LU[rows], Ly[rows] = mix, 0.0
     sub = np.ix_(parts["free"], parts["free"])
@@ -447,7 +419,7 @@ def _spectral_radius(parts, flip, dt):
         # The compact stencil's pressure state Z: forces on U and y, Z' = Z + E (A U + Z).
         LZ, _ = _accelerations({**parts, "fm": compact["fm"], "fl": compact["fl"]}, dt,
                                columns=False)
-        E = _compact_step(compact, dt)
+        E = darcy.step(compact, dt)
         nz = E.shape[0]
         T = np.block([[T, np.vstack([dt * dt * LZ, dt * R @ LZ])],
                       [E @ compact["A"], np.zeros((nz, m)), np.eye(nz) + E]])

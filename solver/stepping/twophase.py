@@ -70,6 +70,7 @@ from ..model.scene import top_forces, water_forces
 from . import kernels
 from .kernels import NB, NF, NLS
 from .scheme import Scheme
+from . import darcy
 
 # Material-point fields of the consolidation run (besides x, volume, mass).
 POINT_FIELDS = {"vs": 2, "vl": 2, "stress": 3, "p": 1, "x0": 2, "monitor": 1, "id": 1,
@@ -151,25 +152,20 @@ class TwoPhase:
         # Small kinematics: shape functions at the initial positions x0 (a point's cell never
         # changes, so nothing migrates); large: at the current positions.
         self.small = scheme.kinematics == "small"
-        # Pressure projection: 0 none, kernels.PNODAL or PCORNER; the corner projection's
-        # nodal pairs (sum N_Q4 V dp, sum N_Q4 V) take two fields per node.
+        # Pressure projection: 0 none, kernels.PNODAL or PCORNER (two fields per node).
         self.project = {"none": 0, "nodal": kernels.PNODAL,
                         "corner": kernels.PCORNER}[scheme.pressure_projection]
         self.pfields = 2 if self.project == kernels.PCORNER else 1
-        # Q4's corner pressures share their nodes with the liquid's velocity: its Darcy
-        # flux then takes the compact stencil (kernels._compact), in one soil (in layers
-        # the harmonic nodal flux made it grow on the layered column: docs/method.md).
+        # Q4's corner pressures share their nodes with the liquid: its Darcy flux takes the
+        # compact stencil (kernels._compact; one soil: docs/method.md), capped.
         self.compact = (self.project == kernels.PCORNER and grid.element == "q4"
                         and len(soil.soils) == 1 and scheme.liquid_basis == "element")
-        # Its cap on dt (K_l / n)(k / gamma_w): h_min^2 / 4, 1 / lambda for the largest
-        # eigenvalue lambda <= 4 / h_min^2 of its operator (tests/test_compact_darcy.py).
-        self.compact_cap = min(grid.h) ** 2 / 4 if self.compact else 0.0      # m2
+        self.compact_cap = darcy.cap(grid.h) if self.compact else 0.0
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
         # -mpm_lumping blended: the solid's transfer (weights and interpolation) in N_hat.
         self.solid_blended = self.lumping == "blended"
-        # Layers: per-point material (kernels.NL reals per layer), NLS more nodal sums and
-        # the nodal Darcy flux among the results.
+        # Layers: per-point material (kernels.NL reals per layer), more nodal sums/results.
         self.layers = soil.soils
         self.layered = len(self.layers) > 1
         self.nf = NF + self.blend + NLS * self.layered
