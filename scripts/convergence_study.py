@@ -65,8 +65,7 @@ VARIANTS = {
     "q4": {"moving points, no projection": ["-mpm_kinematics", "large",
                                             "-mpm_pressure_projection", "none"],
            "no projection": ["-mpm_pressure_projection", "none"],
-           "moving points": ["-mpm_kinematics", "large"],
-           "nodal projection": ["-mpm_pressure_projection", "nodal"]},
+           "moving points": ["-mpm_kinematics", "large"]},
     "q9": {"moving points": ["-mpm_kinematics", "large"],
            "nodal projection": ["-mpm_pressure_projection", "nodal"],
            "no projection": ["-mpm_pressure_projection", "none"]},
@@ -100,7 +99,6 @@ def plan(quick: bool):
                 # point pressures were the quadratic cells' default before the corner
                 # projection (Q8's on 1 x 40 cells alone took 4.8 minutes: left out).
                 nys = ((10,) if name == "element basis, moving points" else
-                       (10, 20, 40, 80) if name == "nodal projection" and e == "q4" else
                        (10, 20, 40) if name == "no projection" and e == "q9" else
                        (10, 20) if e == "q8" else
                        (10, 20, 40) if name in ("moving points, no projection",

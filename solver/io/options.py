@@ -197,7 +197,8 @@ SPEC = [
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
            "point), nodal (projected onto the nodal field and interpolated back), corner "
            "(onto the bilinear field of the cells' corner nodes: below the quadratic cells' "
-           "velocities; on q4 with the compact Darcy stencil), auto (corner)",
+           "velocities; on q4 with the compact Darcy stencil), auto (corner; nodal for q4 "
+           "undrained at its sides)",
            (CONSOLIDATION,), choices=("auto", "none", "nodal", "corner")),
     Option("liquid_basis", "str", "auto", "basis of the liquid equation (its masses, drag, "
            "force, velocity transfers and relative motion): element (N), blended (N/2 + "

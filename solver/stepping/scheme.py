@@ -31,15 +31,16 @@ def default_lumping(element: str) -> str:
     return "blended" if element == "q8" else "rowsum"
 
 
-def auto_scheme(element: str) -> dict:
-    """What ``auto`` means for each discretisation choice of the step on a cell type. The
-    corner projection on every cell type: on Q4 its Darcy flux takes the compact stencil
-    (kernels._compact; in one soil), which halves the nodal projection's errors on the
-    paper's column and brings the laterally drained block within 1.4 % of q from T_dr 0.2
-    (nodal 4.2 %; docs/studies.md)."""
+def auto_scheme(element: str, lateral: bool = False) -> dict:
+    """What ``auto`` means for each discretisation choice of the step on a cell type, on a
+    body drained through a side (``lateral``) or not. The pressure projection: corner on
+    quadratic cells; on Q4 the nodal one, but corner on a body drained through a side, where
+    its compact Darcy stencil (kernels._compact) brings the laterally drained block within
+    1.4 % of q of the FE from T_dr 0.2 (nodal 4.2 %); on the columns the nodal projection
+    converges and the compact stencil's cap fades it as cells shrink (docs/studies.md)."""
     return {"lumping": default_lumping(element),
             "kinematics": "small",
-            "pressure_projection": "corner",
+            "pressure_projection": "nodal" if element == "q4" and not lateral else "corner",
             "liquid_basis": "blended" if element == "q8" else "element"}
 
 
@@ -80,11 +81,12 @@ class Scheme:
     swings: object = field(default=None, compare=False, repr=False)
 
     @classmethod
-    def resolve(cls, element: str, choices: dict, S: float = 1.0, **terms) -> "Scheme":
+    def resolve(cls, element: str, choices: dict, S: float = 1.0, lateral: bool = False,
+                **terms) -> "Scheme":
         """The scheme of a cell type from ``choices`` ({AUTO_KEYS name: value or 'auto'},
-        missing: auto), the factor S and the remaining fields (``terms``; a ``flip`` of
-        'auto' is :func:`auto_flip`'s)."""
-        auto = auto_scheme(element)
+        missing: auto) on a body drained through a side or not (``lateral``), the factor S
+        and the remaining fields (``terms``; a ``flip`` of 'auto' is :func:`auto_flip`'s)."""
+        auto = auto_scheme(element, lateral)
         picked = {k: auto[k] if choices.get(k, "auto") == "auto" else choices[k]
                   for k in AUTO_KEYS}
         if picked["lumping"] == "blended" and picked["liquid_basis"] != "blended":
@@ -109,7 +111,7 @@ class Scheme:
         S = inertia.scaling(p.mass_scaling, soil, p.size[1], first_report_tv, p.damping,
                             p.fast_damping, wave_period, swings)
         return cls.resolve(p.element, {k: getattr(p, k) for k in AUTO_KEYS}, S,
-                           drag=p.drag, damping=p.damping, bulk_viscosity=p.bulk_viscosity,
+                           lateral=bool({"left", "right"} & set(p.drained)), drag=p.drag, damping=p.damping, bulk_viscosity=p.bulk_viscosity,
                            fast_damping=p.fast_damping, flip=p.flip,
                            mass_scaling_choice=str(p.mass_scaling), wave_period=wave_period,
                            swings=swings)
