@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import script_module
 
 from solver.model import lattice
 from solver.stepping.flow import Flow, increment
@@ -53,29 +54,6 @@ def test_bspline_gradients_are_continuous_where_linear_ones_jump():
     assert np.max(np.abs(hat[0] - hat[1])) == pytest.approx(2 * 0.5 / 0.2, rel=1e-6)
 
 
-def _column(kind, cells, ppc=4, l0=1.0, rho=1000.0, g=10.0, lam=0.7):
-    """The elastic column (nu = 0, one cell wide, rollers, a fixed floor) under its own
-    weight, ramped over 10 periods and relaxed to rest over 30 (local damping 0.1, 10 %
-    PIC): E = rho g l0 lam / -ln(lam) shortens its foot to lam = 0.7. Returns the RMS and
-    largest error of sigma_yy over the points, in units of rho g l0, and the points' largest
-    vertical strain."""
-    E = rho * g * l0 * lam / -np.log(lam)
-    h = l0 / cells
-    lat = lattice.Lattice(kind, (1, cells + 1), (h, h))
-    s = (np.arange(ppc) + 0.5) / ppc
-    X, Y = np.meshgrid(s * h, np.concatenate([(j + s) * h for j in range(cells)]))
-    flow = Flow(lat, np.stack([X.ravel(), Y.ravel()], axis=1), h * h / ppc ** 2, rho,
-                Elastic(E, 0.0), g=0.0, walls={"left": "x", "right": "x", "bottom": "xy"},
-                damping=0.1, flip=0.9)
-    period = 4 * l0 / np.sqrt(E / rho)
-    dt = 0.25 * h * lam / np.sqrt(E / (rho * lam))
-    for k in range(int(30 * period / dt)):
-        flow.g = g * min(1.0, k * dt / (10 * period))
-        flow.step(dt)
-    err = (flow.sigma[:, 1] + rho * g * (l0 - flow.x0[:, 1])) / (rho * g * l0)
-    return np.sqrt(np.mean(err ** 2)), np.max(np.abs(err)), 1 - flow.J.min()
-
-
 def test_self_weight_column_converges_with_bsplines_not_with_hat_functions():
     """The column shortens by 30 % at its foot, so its points cross cells. With B-splines
     the stress error falls under refinement, 2.2 % to 0.9 % of rho g l0 (RMS) from 4 to 8
@@ -83,11 +61,12 @@ def test_self_weight_column_converges_with_bsplines_not_with_hat_functions():
     functions of standard MPM it is 9.1 % on 8 cells, ten times the B-splines', and does not
     fall with refinement (measured with 2 x 2 points: 12, 17, 20, 121 % on 4 to 32
     cells)."""
-    coarse, _, strain = _column("bspline", 4)
-    fine, worst, _ = _column("bspline", 8)
+    column = script_module("self_weight_column").column       # scripts/self-weight-column
+    coarse, _, strain = column("bspline", 4)
+    fine, worst, _ = column("bspline", 8)
     assert strain > 0.25
     assert fine < 0.5 * coarse and fine < 0.012 and worst < 0.04, (coarse, fine, worst)
-    hat, _, _ = _column("linear", 8)
+    hat, _, _ = column("linear", 8)
     assert hat > 5 * fine, (hat, fine)
 
 
