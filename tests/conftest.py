@@ -284,6 +284,20 @@ def tmp_path_factory(tmp_path_factory):
     return _SharedTmp(tmp_path_factory) if MPI.COMM_WORLD.size > 1 else tmp_path_factory
 
 
+# The block drained through its sides (docs/studies.md, "A block drained through its sides"):
+# W = H = 1.2 m, 8 x 8 cells with 3 x 3 points, E 8 MPa, nu 0.2, n 0.4, k 2e-4 m/s, K_l 2 GPa,
+# 15 kPa on an impermeable top, drained left and right, rollers on the sides, fixed base, the
+# rest from the M1 scene's file (T_dr = c_v t / (W/2)^2 = 4 T_v). A test adds the cell type,
+# the scheme and the report times.
+LATERAL_BLOCK = ["-options_file", "cases/consolidation-m1-q4.opts", "-mpm_ppc", "3",
+                 "-mpm_cells", "8,8", "-mpm_size", "1.2,1.2", "-mpm_E", "8e6", "-mpm_nu", "0.2",
+                 "-mpm_porosity", "0.4", "-mpm_rho_s", "2650", "-mpm_K_l", "2e9",
+                 "-mpm_k", "2e-4", "-mpm_load", "15e3", "-mpm_gravity", "0",
+                 "-mpm_drained", "left,right", "-mpm_bc_left", "x", "-mpm_bc_right", "x",
+                 "-mpm_bc_bottom", "xy", "-mpm_bc_top", "none", "-mpm_Tv_end", "0.125",
+                 "-mpm_figures", "0", "-mpm_progress", "0"]
+
+
 def scene_options(**given):
     """The solver's options (``options.from_mapping``) of a scene given as keywords
     (``cells="1,10"``), a consolidation scene unless ``analysis`` says otherwise, read as

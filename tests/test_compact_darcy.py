@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import check_ok
+from conftest import LATERAL_BLOCK, check_ok
 from petsc4py import PETSc
 
 from solver.model import assembly
@@ -66,26 +66,20 @@ def test_the_cap_bounds_the_stencils_largest_eigenvalue(cells, size, ppc):
         assert rate > 0.98
 
 
-# The laterally drained block of issue 36 as a user runs it (the explicit step on Q4 8 x 8
-# cells with 3 x 3 points, implicit drag, fast-part damping, mass scaling auto), reported at
-# T_dr = 4 T_v = 0.2 and 0.5; the run solves its FE reference (Q9/Q4, 32 x 32 cells) beside.
-BLOCK = ["-options_file", "cases/consolidation-m1-q4.opts", "-mpm_element", "q4",
-         "-mpm_ppc", "3", "-mpm_cells", "8,8", "-mpm_size", "1.2,1.2", "-mpm_E", "8e6",
-         "-mpm_nu", "0.2", "-mpm_porosity", "0.4", "-mpm_rho_s", "2650", "-mpm_rho_l", "1000",
-         "-mpm_K_l", "2e9", "-mpm_k", "2e-4", "-mpm_load", "15e3", "-mpm_gravity", "0",
-         "-mpm_drained", "left,right", "-mpm_bc_left", "x", "-mpm_bc_right", "x",
-         "-mpm_bc_bottom", "xy", "-mpm_bc_top", "none", "-mpm_Tv_end", "0.125",
-         "-mpm_Tv_report", "0.05,0.125", "-mpm_drag", "implicit", "-mpm_damping", "0",
-         "-mpm_fast_damping", "0.5", "-mpm_mass_scaling", "auto",
-         "-mpm_pressure_projection", "auto", "-mpm_progress", "0", "-mpm_figures", "0"]
+# The laterally drained block as a user runs it (the explicit step on Q4 8 x 8 cells with
+# 3 x 3 points, implicit drag, fast-part damping, mass scaling auto), reported at T_dr = 4 T_v
+# = 0.2 and 0.5; the run solves its FE reference (Q9/Q4, 32 x 32 cells) beside.
+BLOCK = [*LATERAL_BLOCK, "-mpm_element", "q4", "-mpm_Tv_report", "0.05,0.125",
+         "-mpm_drag", "implicit", "-mpm_damping", "0", "-mpm_fast_damping", "0.5",
+         "-mpm_mass_scaling", "auto", "-mpm_pressure_projection", "auto"]
 
 
 def test_explicit_q4_block_drained_through_its_sides(cli, tmp_path):
     """Within 2 % of q of the FE at every point from T_dr 0.2 on, and closer than the wide
-    stencil (the nodal projection, which the M1 scene pins). Measured (largest error over
-    every point, % of q, T_dr 0.2 / 0.5): 1.37 / 0.52 with the compact stencil (S = 3, where
-    its cap takes 0.74 of the correction), 4.2 / 2.3 with the nodal projection and 2.8 / 2.2
-    with the corner projection's wide stencil."""
+    stencil (the nodal projection, Q4's choice on bodies not drained through a side).
+    Measured (largest error over every point, % of q, T_dr 0.2 / 0.5): 1.37 / 0.52 with the
+    compact stencil (S = 3, where its cap takes 0.74 of the correction), 4.2 / 2.3 with the
+    nodal projection and 2.8 / 2.2 with the corner projection's wide stencil."""
     compact = check_ok(cli(BLOCK, out_dir=tmp_path / "compact"))
     assert compact["consolidation"]["pressure_projection"] == "corner"
     err = np.array(compact["consolidation"]["fe_reference"]["error_max_pct_of_q"])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from petsc4py import PETSc
 
-from conftest import check_ok
+from conftest import LATERAL_BLOCK, check_ok
 from solver.stepping.twophase import POINT_FIELDS
 from solver.consolidation.implicit import choice
 from solver.consolidation.implicit.quasistatic import QuasiStatic, step_ends
@@ -277,13 +277,8 @@ def _auto(args):
 
 # A laterally drained block: 8 x 8 Q9 cells, 15 kPa on an impermeable top, drained left and
 # right (T_dr = c_v t / (W/2)^2 = 4 T_v), set against its FE on 32 x 32 cells by the run.
-BLOCK = ["-options_file", "cases/consolidation-m1-q4.opts", "-mpm_scheme", "implicit",
-         "-mpm_element", "q9", "-mpm_ppc", "3", "-mpm_cells", "8,8", "-mpm_size", "1.2,1.2",
-         "-mpm_E", "8e6", "-mpm_nu", "0.2", "-mpm_porosity", "0.4", "-mpm_rho_s", "2650",
-         "-mpm_K_l", "2e9", "-mpm_k", "2e-4", "-mpm_load", "15e3", "-mpm_gravity", "0",
-         "-mpm_drained", "left,right", "-mpm_bc_left", "x", "-mpm_bc_right", "x",
-         "-mpm_bc_bottom", "xy", "-mpm_bc_top", "none", "-mpm_Tv_end", "0.125",
-         "-mpm_Tv_report", "0.0125,0.05,0.125", "-mpm_figures", "0", "-mpm_progress", "0"]
+BLOCK = [*LATERAL_BLOCK, "-mpm_scheme", "implicit", "-mpm_element", "q9",
+         "-mpm_Tv_report", "0.0125,0.05,0.125"]
 
 
 def test_taylor_hood_takes_no_projection_by_default(cli, tmp_path):

@@ -10,6 +10,14 @@ import numpy as np
 from ..common.linalg import reciprocal
 
 
+def applies(element: str, projection: str, liquid_basis: str, layers: int) -> bool:
+    """Whether the explicit step's Darcy flux takes the compact stencil: Q4 cells with the
+    corner projection (its pressures share their nodes with the liquid), the element's
+    basis and one soil (in layers the nodes' harmonic flux made it grow: docs/method.md)."""
+    return (element == "q4" and projection == "corner" and liquid_basis == "element"
+            and layers == 1)
+
+
 def cap(h) -> float:
     """The cap (m2) on dt (K_l / n)(k / gamma_w) of Q4's compact Darcy stencil
     (kernels._compact) on cells of sizes h (m): h_min^2 / 4 = 1 / lambda, lambda <= 4 /

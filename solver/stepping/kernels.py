@@ -25,7 +25,8 @@ Arguments, all kept between steps (no per-step temporaries):
   velocities (NG = 8 fields: a_s, a_l, v_s, v_l, x and y each; NGL = 10 in layered
   material, with the Darcy flux; 2 more, the nodes' quasi-static Darcy flux, with the
   compact stencil: :func:`result_fields`), the projected pressure increments (1 field; 2
-  with the corner projection: sum N_Q4 V dp and its own lumped mass sum N_Q4 V) and the static data
+  with the corner projection: sum N_Q4 V dp and its own lumped mass sum N_Q4 V) and the
+  static data
   (NB = 10 per owned node: the load's nodal force, then 1 or 0 for the free or fixed DOFs
   of v_s (x, y) and v_l (x, y), a v_l DOF with 0 being normal to an impermeable side and
   tied to v_s, see :func:`nodal_update`; then 1, or 0 on a drained side, where the corner
@@ -686,10 +687,10 @@ def _corner_terms(A, rnl, layered, V, dt, kdp, n_):
 
 @_jit
 def _compact(terms, A, gp, k, R, kdp, n_):
-    """:func:`_corner_terms` of point k with the compact stencil's flux: f + kdp dq, dq
-    (m/s) the point's quasi-static Darcy flux -(k / gamma_w)(grad p - rho_l g) (grad p
-    ``gp``) less the nodes' interpolated (A[SN, NG:NG + 2]; one soil: k / gamma_w = n /
-    Q), c = dt K_l / n = ``kdp`` (Pa s) times min(1, cap / (dt (K_l / n)(k / gamma_w))).
+    """:func:`_corner_terms` of point k with the compact stencil's flux: f + c dq, dq (m/s)
+    the point's quasi-static Darcy flux -(k / gamma_w)(grad p - rho_l g) (grad p ``gp``)
+    less the nodes' interpolated (A[SN, NG:NG + 2]; one soil: k / gamma_w = n / Q), c =
+    dt K_l / n = ``kdp`` (Pa s) times min(1, cap / (dt (K_l / n)(k / gamma_w))).
 
     Why: the liquid's nodal velocity sees grad p lumped at the nodes, and its divergence
     back at the points makes the Darcy flow's Laplacian of Q4's corner pressures the wide
@@ -700,8 +701,8 @@ def _compact(terms, A, gp, k, R, kdp, n_):
     (K_l / n)(k / gamma_w) lambda <= 2, lambda <= 4 / h_min^2 its largest eigenvalue: the
     cap h_min^2 / 4 keeps it within half that, so that it never sets the time step (K_l /
     n makes it far stiffer than consolidation), at the price of a weaker correction where
-    dt is large; the stability analysis carries it (timestep._compact_parts;
-    docs/method.md, "The compact Darcy stencil")."""
+    dt is large; the stability analysis carries it (darcy.operator; docs/method.md, "The
+    compact Darcy stencil")."""
     kg = n_ / R[RCQ]
     dqx = -kg * gp[k, 0] - A[SN, NG]
     dqy = -kg * (gp[k, 1] - R[RGL]) - A[SN, NG + 1]

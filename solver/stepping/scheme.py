@@ -111,7 +111,8 @@ class Scheme:
         S = inertia.scaling(p.mass_scaling, soil, p.size[1], first_report_tv, p.damping,
                             p.fast_damping, wave_period, swings)
         return cls.resolve(p.element, {k: getattr(p, k) for k in AUTO_KEYS}, S,
-                           lateral=bool({"left", "right"} & set(p.drained)), drag=p.drag, damping=p.damping, bulk_viscosity=p.bulk_viscosity,
+                           lateral=bool({"left", "right"} & set(p.drained)), drag=p.drag,
+                           damping=p.damping, bulk_viscosity=p.bulk_viscosity,
                            fast_damping=p.fast_damping, flip=p.flip,
                            mass_scaling_choice=str(p.mass_scaling), wave_period=wave_period,
                            swings=swings)

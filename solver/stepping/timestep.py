@@ -264,13 +264,12 @@ def _linear_parts(grid, points, body, soil, scheme):
     if scheme.pressure_projection == "nodal":
         # p = Pi p: lumped projection onto the nodes (weights w V) and back with N.
         Sw = Wm.T @ V
-        pres = Nm @ ((np.divide(1.0, Sw, out=np.zeros_like(Sw), where=Sw > 0)[:, None]
-                      * (Wm * V[:, None]).T) @ pres)
+        pres = Nm @ ((reciprocal(Sw)[:, None] * (Wm * V[:, None]).T) @ pres)
     fl = compact = None
     if scheme.pressure_projection == "corner":
         pres, fl, corner = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread,
                                             flux)
-        if grid.element == "q4" and flux is None and scheme.liquid_basis == "element":
+        if darcy.applies(grid.element, "corner", scheme.liquid_basis, len(soil.soils)):
             compact = darcy.operator(corner, Nl, V, n, soil, mat["drag_coefficient"],
                                      darcy.cap(grid.h), Dx, Dy)
     sig[:, 0] -= pres

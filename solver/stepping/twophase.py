@@ -156,10 +156,9 @@ class TwoPhase:
         self.project = {"none": 0, "nodal": kernels.PNODAL,
                         "corner": kernels.PCORNER}[scheme.pressure_projection]
         self.pfields = 2 if self.project == kernels.PCORNER else 1
-        # Q4's corner pressures share their nodes with the liquid: its Darcy flux takes the
-        # compact stencil (kernels._compact; one soil: docs/method.md), capped.
-        self.compact = (self.project == kernels.PCORNER and grid.element == "q4"
-                        and len(soil.soils) == 1 and scheme.liquid_basis == "element")
+        # The compact Darcy stencil (kernels._compact), capped.
+        self.compact = darcy.applies(grid.element, scheme.pressure_projection,
+                                     scheme.liquid_basis, len(soil.soils))
         self.compact_cap = darcy.cap(grid.h) if self.compact else 0.0
         self.blend = scheme.liquid_basis == "blended"
         self.implicit = scheme.drag == "implicit"
@@ -408,8 +407,8 @@ class TwoPhase:
     def _locgT(self):
         """The nodal results of the last step, field-major (kernels.result_fields,
         ghosted-local nodes): a_s, a_l, v_s^{k+1}, v_l^{k+1} (and in layers the Darcy flux
-        q, with the compact stencil the lumped grad p), x and y each (m/s2, m/s, Pa/m; tests
-        read them)."""
+        q, with the compact stencil the nodes' quasi-static Darcy flux), x and y each (m/s2,
+        m/s; tests read them)."""
         return self._O.reshape(self.ng, self.ngf).T
 
     # -- one step --------------------------------------------------------------------------
