@@ -126,8 +126,9 @@ def _limit_of(body, soil, scheme, cells) -> tuple:
     else:
         grounds = tuple(soil.soils) + _interfaces(soil, body, cells)
     estimate = None if small == cells else min(
-        _limit_on(body, one, scheme, small) for one in grounds)
-    return min(_limit_on(body, one, scheme, cells, estimate) for one in grounds), tuple(cells)
+        _limit_on(body, one, scheme, small, layers=len(soil.soils)) for one in grounds)
+    return min(_limit_on(body, one, scheme, cells, estimate, len(soil.soils))
+               for one in grounds), tuple(cells)
 
 
 class UnstableBelow(Exception):
@@ -149,9 +150,10 @@ def _interfaces(ground, body, cells) -> tuple:
     return tuple(out)
 
 
-def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
+def _limit_on(body, soil, scheme, cells, estimate=None, layers=None) -> float:
     """The undamped step's limit (s) on a grid of ``cells`` cells of the body's cell size
-    (one rank), searched near ``estimate`` when one is given."""
+    (one rank), searched near ``estimate`` when one is given; ``layers`` the body's (None:
+    ``soil``'s), whose step may differ from a patch's soil (darcy.applies)."""
     size = tuple(L * c / n for L, c, n in zip(body.size, cells, body.cells))
     with Grid(PETSc.COMM_SELF, body.element, cells, size) as grid, \
             place(grid, body.ppc, soil.point_density, "uniform") as points:
@@ -159,7 +161,7 @@ def _limit_on(body, soil, scheme, cells, estimate=None) -> float:
         guess = min(min(grid.h) / layer.wave_speeds(S)["c1"] for layer in soil.soils)
         if scheme.drag == "explicit":
             guess = min(2 / soil.drag_rate(S), guess)
-        parts = _linear_parts(grid, points, body, soil, scheme)
+        parts = _linear_parts(grid, points, body, soil, scheme, layers)
         limit = _bisect_limit(parts, scheme.flip, guess, estimate=estimate)
         if "compact" in parts and tuple(cells) != tuple(body.cells):
             limit *= COMPACT_PATCH
@@ -218,9 +220,11 @@ def _linear_step(grid, points, body, soil, scheme, dt=0.0):
     return (*_accelerations(parts, dt), parts["R"])
 
 
-def _linear_parts(grid, points, body, soil, scheme):
+def _linear_parts(grid, points, body, soil, scheme, layers=None):
     """What the linearised step is made of, over the free DOFs: the nodal forces on U
-    (``fm``, ``fl``), the lumped masses and drag per DOF, the fixed-phase masks, R."""
+    (``fm``, ``fl``), the lumped masses and drag per DOF, the fixed-phase masks, R, and the
+    compact Darcy stencil's operator where the body's step (of ``layers`` layers; None:
+    ``soil``'s) takes it."""
     x, V = points.get("x", "volume")
     # The material of each point: its layer's in layered ground, else scalars (the same
     # arithmetic as before layers).
@@ -269,7 +273,7 @@ def _linear_parts(grid, points, body, soil, scheme):
     if scheme.pressure_projection == "corner":
         pres, fl, corner = _corner_pressure(grid, x, body, V, n, soil.K_l, div, Nl, spread,
                                             flux)
-        if darcy.applies(grid.element, "corner", scheme.liquid_basis, len(soil.soils)):
+        if darcy.applies(grid.element, "corner", scheme.liquid_basis, layers or len(soil.soils)):
             compact = darcy.operator(corner, Nl, V, n, soil, mat["drag_coefficient"],
                                      darcy.cap(grid.h), Dx, Dy)
     sig[:, 0] -= pres
