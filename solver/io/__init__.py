@@ -3,7 +3,8 @@ the results on disk (summaries, fields, figures, checkpoints, provenance); the m
 before anything is allocated; the start-up of the executables. It knows nothing of the
 analyses: they call it.
 
-- ``options``: the -mpm_ options: declared once, read once, checked;
+- ``spec``: every -mpm_ option declared once (type, default, check, help);
+- ``options``: the -mpm_ options read once from PETSc's database, checked;
 - ``scenefile``: a scene file (cases/*.opts), checked line by line and read as pairs;
 - ``output``: JSON, VTU, XDMF + HDF5 series and figures written whole; where results go;
 - ``fields``: the point fields of a run as a time series on disk;
