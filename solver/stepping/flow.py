@@ -21,9 +21,12 @@ Vectorised over the points (NumPy; bincount for the sums): no loop per point or 
 from __future__ import annotations
 
 import numpy as np
+from mpi4py import MPI
 
 from ..materials.hencky import Hencky
+from ..common.errors import NumericalError
 from ..model import lattice
+from . import transfer
 
 
 def increment(L, dt):
@@ -49,7 +52,7 @@ class Flow:
     cells, :meth:`_fbar`)."""
 
     def __init__(self, grid, x, volume, rho, material, g=9.81, walls=None,
-                 damping=0.0, flip=1.0, fbar=False):
+                 damping=0.0, flip=1.0, fbar=False, friction=0.0, comm=None):
         self.grid = grid
         self.x = np.array(x, dtype=float)
         self.x0 = self.x.copy()
@@ -59,6 +62,11 @@ class Flow:
         self.g, self.damping, self.flip, self.fbar = g, damping, flip, fbar
         self.held, self.source, self.sign = lattice.walls(grid, walls or {})
         self.ghosts = np.flatnonzero(self.source != np.arange(grid.n_nodes))
+        self.friction = friction
+        # The floor's own nodes (y = 0, its y held): where Coulomb friction acts.
+        on_floor = np.isclose(grid.positions()[:, 1], 0.0) & self.held[:, 1]
+        self.floor = np.flatnonzero(on_floor & (self.source == np.arange(grid.n_nodes)))
+        self.mpi = comm.tompi4py() if comm is not None and comm.getSize() > 1 else None
         self.hencky = Hencky(material)
         self.state = self.hencky.initial_state(len(self.x))
         self.sigma = np.zeros((len(self.x), 4))      # Cauchy: xx, yy, zz, xy (Pa)
@@ -87,23 +95,32 @@ class Flow:
         mean = num[cell] / den[cell]
         return f * np.sqrt(mean / det)[:, None, None]
 
+    def _args(self) -> tuple:
+        """The grid's data the transfers take: (functions per direction, ghost layers, the
+        cell sizes (m), nodes per row)."""
+        lat = self.grid
+        return (3 if lat.kind == "bspline" else 2, lat.ghost, np.asarray(lat.h, dtype=float),
+                lat.shape[0])
+
+    def _inside(self) -> None:
+        """A point beyond the grid has no nodes: NumericalError, naming it."""
+        extent = np.array(self.grid.cells) * np.array(self.grid.h)
+        out = np.flatnonzero(np.any((self.x < 0) | (self.x > extent), axis=1))
+        if len(out):
+            x, y = self.x[out[0]]
+            raise NumericalError(f"a material point left the grid at ({x:.4g}, {y:.4g}) m "
+                                 f"(t = {self.time:.4g} s): enlarge -mpm_grid_size")
+
     def step(self, dt: float) -> None:
         """One explicit step of dt (s)."""
-        nodes, N, G = lattice.evaluate(self.grid, self.x)
-        nn, flat = self.grid.n_nodes, nodes.ravel()
-
-        def gather(values):
-            return np.bincount(flat, weights=values.ravel(), minlength=nn)
-
-        mN = N * self.m[:, None]
-        mass = gather(mN)
-        mom = np.stack([gather(mN * self.v[:, d:d + 1]) for d in range(2)], axis=1)
+        self._inside()
+        sums = np.empty((self.grid.n_nodes, transfer.NS))
         V = self.V0 * self.J
-        s = self.sigma
-        force = np.stack([
-            gather(-(s[:, 0:1] * G[..., 0] + s[:, 3:4] * G[..., 1]) * V[:, None]),
-            gather(-(s[:, 3:4] * G[..., 0] + s[:, 1:2] * G[..., 1]) * V[:, None])
-            - self.g * mass], axis=1)
+        transfer.points_to_grid(self.x, self.v, self.m, V, self.sigma, *self._args(), sums)
+        if self.mpi is not None:      # each rank's points, one grid: the sums over all ranks
+            self.mpi.Allreduce(MPI.IN_PLACE, sums)
+        mass, mom, force = sums[:, 0], sums[:, 1:3], sums[:, 3:5]
+        force[:, 1] -= self.g * mass
         # A ghost node's sums belong to the node it mirrors (its test function is part of
         # that node's: N_a + sign N_ghost), folded in with the mirror's sign.
         src, sgn = self.source[self.ghosts], self.sign[self.ghosts]
@@ -116,28 +133,40 @@ class Flow:
         if self.damping:
             force -= self.damping * np.abs(force) * np.sign(vn)
         a = force * inv
+        if self.friction:
+            self._floor_friction(vn, a, dt)
         a[self.held] = 0.0
         vn[self.held] = 0.0
         # Beyond a wall the nodes mirror the nodes inside (lattice.walls).
         a[self.ghosts], vn[self.ghosts] = sgn * a[src], sgn * vn[src]
-        vnew = vn + dt * a
-        self._advance(nodes, N, G, a, vnew, V, dt)
+        self._advance(a, vn + dt * a, V, dt)
+
+    def _floor_friction(self, vn, a, dt) -> None:
+        """Coulomb friction on the floor's nodes, in place on the accelerations a: the
+        floor takes away the normal velocity a node would have into it, -min(0, v_y + dt
+        a_y), and with it at most ``friction`` times as much of its sliding velocity (the
+        impulses' ratio is the forces' over the step; Bardenhagen, Brackbill and Sulsky
+        2000); a node leaving the floor or at rest on it keeps its own."""
+        f = self.floor
+        slide = vn[f, 0] + dt * a[f, 0]
+        pressed = np.maximum(-(vn[f, 1] + dt * a[f, 1]), 0.0)
+        kept = np.sign(slide) * np.maximum(np.abs(slide) - self.friction * pressed, 0.0)
+        a[f, 0] = (kept - vn[f, 0]) / dt
 
     def move(self, velocity, dt: float) -> None:
         """Move the points by the nodal velocities ``velocity`` (n_nodes, 2) (m/s) over dt
         (s), as grid to points does after a step: a prescribed motion of the grid (a
         rigid rotation, a test of objectivity)."""
-        nodes, N, G = lattice.evaluate(self.grid, self.x)
-        self._advance(nodes, N, G, np.zeros_like(velocity), velocity, self.V0 * self.J, dt)
+        self._advance(np.zeros_like(velocity), velocity, self.V0 * self.J, dt)
 
-    def _advance(self, nodes, N, G, a, vnew, V, dt):
+    def _advance(self, a, vnew, V, dt):
         """Grid to points: velocities (FLIP/PIC), positions, the deformation and the stress,
         from the nodal accelerations a and new velocities vnew (n_nodes, 2)."""
-        ap = np.einsum("pa,pad->pd", N, a[nodes])
-        vp = np.einsum("pa,pad->pd", N, vnew[nodes])
+        n = len(self.x)
+        ap, vp, L = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2, 2))
+        transfer.grid_to_points(self.x, a, vnew, *self._args(), ap, vp, L)
         self.v = self.flip * (self.v + dt * ap) + (1 - self.flip) * vp
         self.x += dt * vp
-        L = np.einsum("pai,paj->pij", vnew[nodes], G)
         f = increment(L, dt)
         if self.fbar:
             f = self._fbar(f, V)

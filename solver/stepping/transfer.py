@@ -1,0 +1,96 @@
+"""Compiled transfers of the large-deformation step (:mod:`solver.stepping.flow`) between
+its points and the uniform background grid of :mod:`solver.model.lattice` (numba,
+nopython, cached on disk): one pass over the points each way, with each point's grid
+functions computed on the fly (hat functions, k = 2 per direction, or quadratic
+B-splines, k = 3) as :func:`solver.model.lattice.evaluate` gives them; tests/test_flow.py
+holds these kernels to that NumPy reference.
+
+The points run in their order, one after another, so the sums are the same on every run
+and machine (a parallel run adds the ranks' sums in one all-reduce).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..model import shapes
+
+_jit = njit(cache=True, **shapes.KERNEL_OPTIONS)
+
+NS = 5        # the nodal sums: mass, momentum (x, y), internal force (x, y)
+
+
+@_jit
+def _weights(u, k, N, dN):
+    """The 1D functions at u = x / h (in cells) into N, dN (length k; dN per cell) and the
+    index of the first node: hat functions for k = 2, quadratic B-splines for k = 3."""
+    if k == 2:
+        i = np.int64(np.floor(u))
+        s = u - i
+        N[0], N[1] = 1.0 - s, s
+        dN[0], dN[1] = -1.0, 1.0
+        return i
+    c = np.int64(np.floor(u + 0.5))
+    r = u - c
+    N[0], N[1], N[2] = 0.5 * (0.5 - r) ** 2, 0.75 - r * r, 0.5 * (0.5 + r) ** 2
+    dN[0], dN[1], dN[2] = r - 0.5, -2.0 * r, r + 0.5
+    return c - 1
+
+
+@_jit
+def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, sums):
+    """Add the points' masses m (kg per m), momenta m v and internal forces -V sigma grad N
+    (N per m) into ``sums`` (n_nodes, NS), zeroed here: x, v (np, 2) (m, m/s), the
+    current volumes V (np,) (m2), the Cauchy stresses sigma (np, 4) (xx, yy, zz, xy; Pa),
+    ``k`` functions per direction on cells ``h`` (2,) (m), ``ghost`` layers, ``nxn`` nodes
+    per row."""
+    sums[:] = 0.0
+    Nx, dNx, Ny, dNy = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    for p in range(x.shape[0]):
+        ix = _weights(x[p, 0] / h[0], k, Nx, dNx) + ghost
+        iy = _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost
+        mp, vx, vy = m[p], v[p, 0], v[p, 1]
+        sxx, syy, sxy, Vp = sigma[p, 0], sigma[p, 1], sigma[p, 3], V[p]
+        for b in range(k):
+            row = (iy + b) * nxn + ix
+            for c in range(k):
+                a = row + c
+                N = Ny[b] * Nx[c]
+                gx = Ny[b] * dNx[c] / h[0]
+                gy = dNy[b] * Nx[c] / h[1]
+                sums[a, 0] += N * mp
+                sums[a, 1] += N * mp * vx
+                sums[a, 2] += N * mp * vy
+                sums[a, 3] -= Vp * (sxx * gx + sxy * gy)
+                sums[a, 4] -= Vp * (sxy * gx + syy * gy)
+
+
+@_jit
+def grid_to_points(x, a, vnew, k, ghost, h, nxn, ap, vp, L):
+    """The points' interpolated nodal accelerations ``ap`` and new velocities ``vp`` (np, 2)
+    and velocity gradients ``L`` = sum vnew (x) grad N (np, 2, 2) (1/s), written here, from
+    the nodal a and vnew (n_nodes, 2) at the points' positions x (np, 2) (m)."""
+    Nx, dNx, Ny, dNy = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    for p in range(x.shape[0]):
+        ix = _weights(x[p, 0] / h[0], k, Nx, dNx) + ghost
+        iy = _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost
+        s0 = s1 = s2 = s3 = 0.0
+        l00 = l01 = l10 = l11 = 0.0
+        for b in range(k):
+            row = (iy + b) * nxn + ix
+            for c in range(k):
+                n = row + c
+                N = Ny[b] * Nx[c]
+                gx = Ny[b] * dNx[c] / h[0]
+                gy = dNy[b] * Nx[c] / h[1]
+                s0 += N * a[n, 0]
+                s1 += N * a[n, 1]
+                s2 += N * vnew[n, 0]
+                s3 += N * vnew[n, 1]
+                l00 += vnew[n, 0] * gx
+                l01 += vnew[n, 0] * gy
+                l10 += vnew[n, 1] * gx
+                l11 += vnew[n, 1] * gy
+        ap[p, 0], ap[p, 1], vp[p, 0], vp[p, 1] = s0, s1, s2, s3
+        L[p, 0, 0], L[p, 0, 1], L[p, 1, 0], L[p, 1, 1] = l00, l01, l10, l11
