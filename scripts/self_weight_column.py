@@ -42,9 +42,8 @@ def column(kind, cells, ppc=4, l0=1.0, rho=1000.0, g=10.0, lam=0.7):
     E = rho * g * l0 * lam / -np.log(lam)
     h = l0 / cells
     grid = lattice.Lattice(kind, (1, cells + 1), (h, h))
-    s = (np.arange(ppc) + 0.5) / ppc
-    X, Y = np.meshgrid(s * h, np.concatenate([(j + s) * h for j in range(cells)]))
-    flow = Flow(grid, np.stack([X.ravel(), Y.ravel()], axis=1), h * h / ppc ** 2, rho,
+    x, volume = lattice.fill((h, l0), (1, cells), ppc)
+    flow = Flow(grid, x, volume, rho,
                 Elastic(E, 0.0), g=0.0, walls={"left": "x", "right": "x", "bottom": "xy"},
                 damping=0.1, flip=0.9)
     period = 4 * l0 / np.sqrt(E / rho)

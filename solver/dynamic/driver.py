@@ -22,6 +22,7 @@ from ..io import checkpoint
 from ..run.loop import Cadence, Saving, drive
 from ..run.record import Record, guarded, owned
 from . import histories, reporting
+from .flowing import check_shaken
 from .plan import Request, plan_of
 
 MAX_STEPS = 5e7
@@ -30,7 +31,11 @@ MAX_STEPS = 5e7
 def run(p, comm) -> int:
     """Run the dynamic scene of the options ``p`` on ``comm``; returns 0 (a failure raises,
     after the record has written what it can)."""
+    if p.kinematics == "large":
+        from .flowing import run as flowing
+        return flowing(p, comm)
     signals.stage("set-up: the options' checks")
+    check_shaken(p)
     req = Request.from_options(p)
     record = Record("dynamic", comm)
     with owned(comm) as stack:

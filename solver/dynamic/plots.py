@@ -111,3 +111,40 @@ def _peaks(plt, plan, rec, water):
         ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def deposit(plan, model, final, profile, toe) -> dict:
+    """The flowing body's figure: the deposit's points (coloured by their plastic
+    multiplier) and free surface over the initial shape, with the scene's experiment (its
+    surface and failure line) where it has one; beside it the kinetic energy against time.
+    ``final``: the points' gathered arrays (x, x0, eps_p), ``profile`` (x, surface) (m)."""
+    plt = output.pyplot()
+    fig, (ax, ax_e) = plt.subplots(2, 1, figsize=(8, 6.5),
+                                   gridspec_kw={"height_ratios": [2.2, 1]})
+    W, H = plan.size
+    ax.plot([0, W, W], [H, H, 0], "k--", lw=1, label="initial shape")
+    # The floor's few sliding points reach far higher multipliers: the scale ends at the
+    # 98th percentile so the shear bands show.
+    top = max(float(np.percentile(final["eps_p"], 98)), 1e-12)
+    dots = ax.scatter(final["x"][:, 0], final["x"][:, 1], c=final["eps_p"], s=2,
+                      cmap="viridis", vmin=0, vmax=top, rasterized=True)
+    fig.colorbar(dots, ax=ax, label="plastic multiplier (-)", shrink=0.6, extend="max")
+    ax.plot(*profile, "C3-", lw=1.2, label=f"computed surface (toe {toe:.3g} m)")
+    e = plan.experiment
+    if e is not None:
+        ax.plot(*e.surface.T, "ko", ms=3.5, mfc="none",
+                label=f"experiment: surface (toe {e.toe:.3g} m)")
+        (x0, y0), (x1, y1) = e.failure_line
+        ax.plot([x0, x1], [y0, y1], "k-.", lw=1.2, label="experiment: failure line")
+    ax.set_xlim(0, max(toe, W, e.toe if e else 0) * 1.05)
+    ax.set_ylim(0, H * 1.15)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.legend(fontsize=8, loc="upper right")
+    energy = np.array(model.energy).reshape(-1, 2)
+    ax_e.plot(energy[:, 0], energy[:, 1], "C0-")
+    ax_e.set_xlabel("t (s)")
+    ax_e.set_ylabel("kinetic energy (J/m)")
+    ax_e.grid(alpha=0.3)
+    return output.save_figures(fig, plan.outputs.folder, "deposit", plan.outputs.formats)

@@ -13,7 +13,8 @@ EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST, STATIC = ("eigen", "consolidation", "dy
                                                    "soiltest", "static")
 ANALYSES = (EIGEN, CONSOLIDATION, DYNAMIC, SOILTEST, STATIC)
 BOTH = (EIGEN, CONSOLIDATION, STATIC)      # the analyses of a body on supports
-MATERIAL = (CONSOLIDATION, SOILTEST, STATIC)   # the analyses that take -mpm_material
+MATERIAL = (CONSOLIDATION, SOILTEST, STATIC, DYNAMIC)   # the analyses that take -mpm_material
+WALLS = (EIGEN, CONSOLIDATION, STATIC, DYNAMIC)      # the analyses that take -mpm_bc_*
 MOVING = (CONSOLIDATION, DYNAMIC)       # the analyses that step in time
 BC_CHOICES = ("none", "x", "y", "xy")
 
@@ -61,10 +62,10 @@ SPEC = [
            "a dry soil, dynamic one-phase only)",
            check=checks.nonnegative),
     Option("porosity", "float_or_floats", 0.3, "porosity n, per layer", check=checks.open_unit),
-    Option("bc_left", "str", "x", "fixed displacement components on x = 0", BOTH, choices=BC_CHOICES),
-    Option("bc_right", "str", "x", "fixed displacement components on x = W", BOTH, choices=BC_CHOICES),
-    Option("bc_bottom", "str", "xy", "fixed displacement components on y = 0", BOTH, choices=BC_CHOICES),
-    Option("bc_top", "str", "none", "fixed displacement components on y = H", BOTH, choices=BC_CHOICES),
+    Option("bc_left", "str", "x", "fixed displacement components on x = 0", WALLS, choices=BC_CHOICES),
+    Option("bc_right", "str", "x", "fixed displacement components on x = W", WALLS, choices=BC_CHOICES),
+    Option("bc_bottom", "str", "xy", "fixed displacement components on y = 0", WALLS, choices=BC_CHOICES),
+    Option("bc_top", "str", "none", "fixed displacement components on y = H", WALLS, choices=BC_CHOICES),
     Option("nmodes", "int", 5, "eigenpairs to report", BOTH, check=checks.at_least_one),
     Option("eigen_solver", "strs", ("jacobi", "slepc"), "eigen solvers to run, one or both",
            BOTH, choices=("jacobi", "slepc")),
@@ -79,7 +80,7 @@ SPEC = [
            "9.81 m/s2, per layer", MOVING, checks.positive),
     Option("gravity", "float", 0.0, "body force, acting downwards (m/s2); static: the body "
            "starts at rest under it (K0), its weight buoyant under the water table at the "
-           "surface (dry with -mpm_rho_l 0)", (CONSOLIDATION, STATIC), checks.nonnegative),
+           "surface (dry with -mpm_rho_l 0)", (CONSOLIDATION, STATIC, DYNAMIC), checks.nonnegative),
     Option("initial_state", "str", "deposited", "the state before the load, with gravity: "
            "deposited (a fresh deposit, pore pressure and effective stress 0: it consolidates "
            "under its own weight) or geostatic (hydrostatic pore pressure and K0 effective "
@@ -116,7 +117,7 @@ SPEC = [
     Option("dt", "float", float("nan"), "time step (s); default: dt_safety times the "
            "smallest critical time step", (CONSOLIDATION,), checks.positive),
     Option("dt_safety", "float", 0.5, "fraction of the smallest critical time step used",
-           (CONSOLIDATION,), lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
+           MOVING, lambda v: None if 0 < v <= 1 else "must lie in (0, 1]"),
     Option("stability_analysis", "bool", True, "compute the discrete stability limit of the "
            "step (a dense analysis; 0: Table 1's criteria and the drag limit only)",
            (CONSOLIDATION,)),
@@ -155,7 +156,7 @@ SPEC = [
            "times (0: at the report times only)", MOVING, checks.nonnegative),
     Option("damping", "float", 0.0, "local (Cundall) damping coefficient of the nodal "
            "accelerations, 0 for none (it opposes the settlement too: docs/studies.md)",
-           (CONSOLIDATION,),
+           MOVING,
            lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
     Option("bulk_viscosity", "float", 0.0, "linear bulk viscosity b1: a viscous stress "
            "b1 rho c1 h div(v_s) on the mixture (rho, c1 with the scaled inertia, h the "
@@ -168,14 +169,17 @@ SPEC = [
            "the wave out without slowing the settlement (docs/studies.md); 0 for none", (CONSOLIDATION,), lambda v: None if 0 <= v <= 5 else "must lie in [0, 5]"),
     Option("flip", "str", "auto", "FLIP fraction of the point velocity update, in [0, 1] "
            "(0: PIC), or auto (1; 0.99 for hrz lumping with the corner pressure projection, "
-           "whose pure FLIP transfer feeds a slow growing mode)", (CONSOLIDATION,), checks.fraction),
+           "whose pure FLIP transfer feeds a slow growing mode; dynamic large: 0.99, whose 1 % PIC "
+           "lets a collapse come to rest)", MOVING, checks.fraction),
     Option("lumping", "str", "auto", "lumped masses and the solid's transfer: rowsum, hrz, "
            "blended (the liquid's blended basis N_hat both ways), auto (blended for q8)",
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz", "blended")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
            "points' initial positions: small strains, as the constant volumes and porosity "
-           "assume), large (at their current positions: moving-point MPM), auto (small)",
-           (CONSOLIDATION,), choices=("auto", "small", "large")),
+           "assume), large (at their current positions: moving-point MPM; dynamic: the body "
+           "flows across a grid larger than itself under gravity, updated Lagrangian, "
+           "Hencky's elasticity), auto (small)",
+           MOVING, choices=("auto", "small", "large")),
     Option("pressure_projection", "str", "auto", "pore-pressure increments: none (kept per "
            "point), nodal (projected onto the nodal field and interpolated back), corner "
            "(onto the bilinear field of the cells' corner nodes: below the quadratic cells' "
@@ -237,6 +241,22 @@ SPEC = [
            "(Hz; default f1 and 5 f1 of the Jacobi eigen analysis of the same column); "
            "none when not given", (DYNAMIC,), checks.rayleigh),
     Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), checks.positive),
+    # -- large deformation: -mpm_kinematics large in the dynamic analysis ------------------
+    Option("grid_size", "floats", (), "large: the background grid W,H from the origin (m), "
+           "the body at its origin, each a whole number of the body's cells (default: the "
+           "body)", (DYNAMIC,), checks.all_positive, length=2),
+    Option("shape", "str", "bspline", "large: grid functions: bspline (quadratic B-splines, "
+           "smooth forces as points cross cells) or linear (the hat functions of standard "
+           "MPM)", (DYNAMIC,), choices=("linear", "bspline")),
+    Option("floor_friction", "float", 0.0, "large: Coulomb friction coefficient of the floor "
+           "(with -mpm_bc_bottom y; xy holds the floor's points)", (DYNAMIC,),
+           checks.nonnegative),
+    Option("rest_energy", "float", 1e-4, "large: the run ends when the kinetic energy has "
+           "fallen to this fraction of its peak (0: at -mpm_t_end)", (DYNAMIC,),
+           lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
+    Option("experiment", "str", "none", "large: the experiment drawn and compared beside "
+           "the result, of the scene's own column: none, bui-2008 (Bui et al. 2008: final "
+           "free surface and failure line)", (DYNAMIC,), choices=("none", "bui-2008")),
     Option("record_depths", "floats", (), "depths below the surface of the recorded "
            "histories (m); the surface and the base always", (DYNAMIC,), checks.all_nonnegative),
     Option("record_dt", "float", 0.005, "time between recorded samples (s; the time step "
@@ -277,7 +297,8 @@ SPEC = [
            "(Pa), from the start", (STATIC,), checks.nonnegative),
     Option("load_steps", "int", 20, "equal settlement steps (each halved where Newton does "
            "not converge)", (STATIC,), checks.at_least_one),
-    Option("bbar", "bool", True, "B-bar: each point's volume change its cell's", (STATIC,)),
+    Option("bbar", "bool", True, "B-bar: each point's volume change its cell's (dynamic "
+           "large: F-bar, the same at finite strain)", (STATIC, DYNAMIC)),
     Option("output", "str", "output", "folder for figures, fields and the summary"),
     Option("summary", "str", "", "JSON summary file (default: OUTPUT/summary.json)"),
     Option("figures", "bool", True, "write figures (in -mpm_figure_format)"),
@@ -285,3 +306,15 @@ SPEC = [
            "svg (e.g. png,pdf)", check=checks.figure_formats),
     Option("debug", "bool", False, "show the Python traceback of a failure"),
 ]
+
+# The options the dynamic analysis reads with -mpm_kinematics large only, and those it does
+# not read with it (the shaken or suddenly loaded body's, and what the flowing body lacks).
+FLOWING_ONLY = ("gravity", "dt_safety", "damping", "flip", "bbar", "grid_size", "shape",
+                "floor_friction", "rest_energy", "experiment", "material", "cohesion",
+                "friction_angle", "dilation_angle", "tension_cutoff", "bc_left", "bc_right",
+                "bc_bottom", "bc_top")
+NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "base",
+               "rock_Vs", "rock_Vp", "rock_rho", "bc_sides", "rayleigh", "record_depths",
+               "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",
+               "jacobi_tol", "jacobi_max_sweeps", "element", "points", "mcc_M", "mcc_lambda",
+               "mcc_kappa", "void_ratio", "mcc_ocr")

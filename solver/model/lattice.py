@@ -140,3 +140,14 @@ def walls(lattice: Lattice, held: dict) -> tuple:
         (si if axis == 0 else sj)[beyond] = mirrored
     source = (sj + g) * nxn + (si + g)
     return mask, source, sign
+
+
+def fill(size, cells, ppc: int) -> tuple:
+    """The material points of the W x H body ``size`` (m) at the origin: ``ppc`` x ``ppc``
+    per cell of its ``cells`` (NX, NY), at the sub-cells' centres, row by row from the
+    bottom. Returns (positions (np, 2) (m), the volume each stands for (m3 per m))."""
+    (W, H), (nx, ny) = size, cells
+    s = (np.arange(ppc) + 0.5) / ppc
+    X, Y = np.meshgrid((np.arange(nx)[:, None] + s).ravel() * W / nx,
+                       (np.arange(ny)[:, None] + s).ravel() * H / ny)
+    return np.stack([X.ravel(), Y.ravel()], axis=1), W * H / (nx * ny * ppc * ppc)

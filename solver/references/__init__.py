@@ -11,7 +11,9 @@ never builds on them (a reference the model were made of would check nothing).
   exact transfer functions and surface histories;
 - ``spectra``: Fourier amplitudes, Konno-Ohmachi smoothing, pseudo-spectral acceleration;
 - ``waves``: plane compression waves of the v-w equations: the saturated column's fast and
-  slow speeds, the undrained speed, the decay by drag.
+  slow speeds, the undrained speed, the decay by drag;
+- ``experiments``: published experiments of large deformation (a granular column's
+  collapse: its final free surface and failure line).
 
 May import: materials, model, common.
 

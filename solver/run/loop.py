@@ -15,7 +15,9 @@ A model offers (the protocol :class:`Model`):
   step computes the acceleration at its start);
 - ``progress(k)``: what the progress line says of step k ("t = 1.2 s, ...");
 - ``points`` (the DMSwarm a checkpoint gathers) and ``log_stage`` (the PETSc log stage
-  of its steps).
+  of its steps);
+- optionally ``finished(k)``: true, on every rank alike, when the run ends after step k
+  before the last (a flow come to rest); its fields are written then.
 
 Step k is the k-th step of the run, counted from 1; a checkpoint's ``step`` is the last
 step done, and a restart goes on with the next one. Every step the ranks agree (one
@@ -144,6 +146,10 @@ def drive(model: Model, cadence: Cadence, record, saving: Saving, first: int = 1
                                   f"continue with -mpm_restart {saving.path}",
                                   stage=record.middle, agreed=True)
             record.whole = k
+            if hasattr(model, "finished") and model.finished(k):
+                if not cadence.outputs(k):
+                    model.write_fields(k)
+                break
             if cadence.progress_seconds and now - last_print > cadence.progress_seconds:
                 last_print = now
                 PETSc.Sys.Print(_progress(model, k, cadence.nsteps, now - t0, first),
