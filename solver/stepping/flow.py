@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from mpi4py import MPI
 
-from ..materials.hencky import Hencky
+from ..materials.hencky import Hencky, det2
 from ..common.errors import NumericalError
 from ..model import lattice
 from . import transfer
@@ -34,13 +34,17 @@ def increment(L, dt):
     Hughes and Winget's (I - dt L / 2)^-1 (I + dt L / 2), second order and exactly
     orthogonal where L is skew (a rigid spin turns b_e without stretching it; I + dt L
     would stretch it by 1 + (w dt)^2 / 2 every step)."""
-    A = np.eye(2)[None] - 0.5 * dt * L
-    B = np.eye(2)[None] + 0.5 * dt * L
-    det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
-    inv = np.empty_like(A)
-    inv[:, 0, 0], inv[:, 1, 1] = A[:, 1, 1] / det, A[:, 0, 0] / det
-    inv[:, 0, 1], inv[:, 1, 0] = -A[:, 0, 1] / det, -A[:, 1, 0] / det
-    return inv @ B
+    # (I - dt L / 2)^-1 (I + dt L / 2), written out for 2 x 2 blocks.
+    h = 0.5 * dt
+    a00, a01, a10, a11 = 1 - h * L[:, 0, 0], -h * L[:, 0, 1], -h * L[:, 1, 0], 1 - h * L[:, 1, 1]
+    b00, b01, b10, b11 = 1 + h * L[:, 0, 0], h * L[:, 0, 1], h * L[:, 1, 0], 1 + h * L[:, 1, 1]
+    det = a00 * a11 - a01 * a10
+    out = np.empty_like(L)
+    out[:, 0, 0] = (a11 * b00 - a01 * b10) / det
+    out[:, 0, 1] = (a11 * b01 - a01 * b11) / det
+    out[:, 1, 0] = (a00 * b10 - a10 * b00) / det
+    out[:, 1, 1] = (a00 * b11 - a10 * b01) / det
+    return out
 
 
 class Flow:
@@ -88,7 +92,7 @@ class Flow:
         lat = self.grid
         cell = (np.floor(self.x[:, 1] / lat.h[1]).astype(np.int64) * lat.cells[0]
                 + np.floor(self.x[:, 0] / lat.h[0]).astype(np.int64))
-        det = np.linalg.det(f)
+        det = det2(f)
         n = lat.cells[0] * lat.cells[1]
         num = np.bincount(cell, weights=V * det, minlength=n)
         den = np.bincount(cell, weights=V, minlength=n)
