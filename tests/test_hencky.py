@@ -77,3 +77,29 @@ def test_mohr_coulomb_at_finite_strain_stays_on_its_surface():
     f = (s[:, 0] - s[:, 2]) + (s[:, 0] + s[:, 2]) * sf - 2 * 2e3 * cf
     assert state["plastic"][0] and abs(f[0]) < 1e-9 * np.abs(tau).max()
     assert state["J"][0] == pytest.approx(0.98, rel=1e-12)
+
+
+def test_the_principal_return_is_the_framed_one():
+    """Mohr-Coulomb's return without the frame (update_principal, which Hencky takes) gives
+    the stresses and history of its framed update, on points that yield and points that
+    do not, in every order of the principal values."""
+    mc = MohrCoulomb(1e7, 0.3, 5e3, 30.0, 5.0)
+    rng = np.random.default_rng(3)
+    n = 400
+    f = np.eye(2)[None] + 0.02 * rng.standard_normal((n, 2, 2))
+    framed = Hencky(mc)
+    state = framed.initial_state(n)
+
+    class Framed:                    # the same material, its update_principal hidden
+        def __getattr__(self, name):
+            if name == "update_principal":
+                raise AttributeError(name)
+            return getattr(mc, name)
+
+    plain = Hencky(Framed())
+    a, sa = framed.update(f, state)
+    b, sb = plain.update(f, state)
+    assert 0 < sa["plastic"].sum() < n
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * np.abs(b).max())
+    np.testing.assert_array_equal(sa["plastic"], sb["plastic"])
+    np.testing.assert_allclose(sa["eps_p"], sb["eps_p"], rtol=1e-12, atol=1e-18)

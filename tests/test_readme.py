@@ -101,6 +101,9 @@ def _reference_words(p) -> set:
     if p.analysis == "soiltest":
         # One point against its test's closed form: Cam Clay's at the critical state.
         return {"critical state"} if p.material == "mcc" else {"closed form"}
+    if p.analysis == "dynamic" and p.kinematics == "large":
+        # A flowing body: the experiment it names, or none.
+        return {"none"} if p.experiment == "none" else {"experiment", "Bui"}
     if p.analysis == "dynamic":
         # Two phases: the saturated column's waves, then Terzaghi; one phase: the exact
         # response of the column on rock, unless Rayleigh damping's mass part rules it out.
@@ -136,6 +139,8 @@ def test_the_scenes_table_is_cases():
                           "implicit" if p.scheme == "auto" else p.scheme), name
         nx, ny = p.cells
         assert mesh == ("one point" if p.analysis == "soiltest" else
+                        f"{p.shape} {nx} x {ny} on the body, {p.ppc} x {p.ppc}"
+                        if p.kinematics == "large" else
                         f"{p.element.upper()} {nx} x {ny}, {p.ppc} x {p.ppc}"), name
         assert len(what.split()) >= 4, name
         for word in _reference_words(p):

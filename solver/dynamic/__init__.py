@@ -1,5 +1,6 @@
 """The dynamic analysis: ``-mpm_analysis dynamic``, the body shaken at its base or loaded
-suddenly, stepped in time.
+suddenly, stepped in time; with ``-mpm_kinematics large``, a body flowing under gravity
+across a grid larger than itself (a granular column's collapse).
 
 - ``driver``: the analysis, run by the command line: the model as the loop drives it
   (``Shaken``), its records and field series;
@@ -12,6 +13,9 @@ suddenly, stepped in time.
   histories, peaks and spectra it writes;
 - ``reporting``: the lines printed, the exact response of a one-dimensional scene, the
   XDMF series, the summary's ``dynamic`` block;
+- ``flowing``: the flowing body: its options planned, the model the loop drives;
+- ``runout``: its reporting: the deposit's free surface, toe, energy, the experiment
+  beside it, the summary's block;
 - ``plots``: the figures.
 
 May import: consolidation, consolidation.implicit, eigen, stepping, modal, run, io,

@@ -22,7 +22,8 @@ from ..io import checkpoint
 from ..run.loop import Cadence, Saving, drive
 from ..run.record import Record, guarded, owned
 from . import histories, reporting
-from .flowing import check_shaken
+from . import flowing
+from .flowing import check_given
 from .plan import Request, plan_of
 
 MAX_STEPS = 5e7
@@ -31,11 +32,10 @@ MAX_STEPS = 5e7
 def run(p, comm) -> int:
     """Run the dynamic scene of the options ``p`` on ``comm``; returns 0 (a failure raises,
     after the record has written what it can)."""
-    if p.kinematics == "large":
-        from .flowing import run as flowing
-        return flowing(p, comm)
     signals.stage("set-up: the options' checks")
-    check_shaken(p)
+    check_given(p.given, p.kinematics)
+    if p.kinematics == "large":
+        return flowing.run(flowing.plan_of(p), comm)
     req = Request.from_options(p)
     record = Record("dynamic", comm)
     with owned(comm) as stack:

@@ -27,7 +27,6 @@ import os
 import numpy as np
 from mpi4py import MPI
 
-from ..common import signals
 from ..common.errors import InputError, NumericalError
 from ..io import checkpoint, output, provenance
 from ..io.restart import given_at_start
@@ -80,67 +79,64 @@ class FlowPlan:
     provenance: dict
 
 
-def _one(name: str, value):
-    """The one value of a per-layer option: the flowing body is one soil."""
-    if isinstance(value, tuple):
-        if len(value) > 1:
-            raise InputError(f"-mpm_{name}: one value (the flowing body is one soil)")
-        value = value[0]
-    return value
-
-
-def _grid(p) -> lattice.Lattice:
-    """The background grid: the body's cells over ``-mpm_grid_size`` (default: the body)."""
-    W, H = p.size
-    h = (W / p.cells[0], H / p.cells[1])
-    size = tuple(p.grid_size) or (W, H)
-    cells = []
-    for d, (extent, body, step) in enumerate(zip(size, (W, H), h)):
+def _grid(size, cells, grid_size, kind) -> lattice.Lattice:
+    """The background grid of ``kind``'s functions: the body's ``cells`` over its ``size``
+    (m), over ``grid_size`` (m; empty: the body's)."""
+    (W, H), h = size, (size[0] / cells[0], size[1] / cells[1])
+    extents = tuple(grid_size) or (W, H)
+    counts = []
+    for d, (extent, body, step) in enumerate(zip(extents, (W, H), h)):
         n = extent / step
         if extent < body * (1 - 1e-12) or abs(n - round(n)) > 1e-6 * n:
-            raise InputError(f"-mpm_grid_size {size[0]:g},{size[1]:g}: each side at least "
-                             f"the body's and a whole number of its cells ({step:g} m "
+            raise InputError(f"-mpm_grid_size {extents[0]:g},{extents[1]:g}: each side at "
+                             f"least the body's and a whole number of its cells ({step:g} m "
                              f"{'across' if d == 0 else 'up'})")
-        cells.append(int(round(n)))
-    return lattice.Lattice(p.shape, tuple(cells), h)
+        counts.append(int(round(n)))
+    return lattice.Lattice(kind, tuple(counts), h)
 
 
-def _material(p):
-    """The material of the options, one soil, of constant elasticity (Hencky's)."""
-    names = {n: _one(n, getattr(p, n)) for n in ("material", "cohesion", "friction_angle",
-                                                 "dilation_angle", "tension_cutoff", "E",
-                                                 "nu")}
-    if names["material"] == "mcc":
+def _material(recipe, E, nu):
+    """The material of the ``recipe`` (:class:`catalog.Recipe`) of constant elasticity
+    (Hencky's): one soil."""
+    if recipe.name == "mcc":
         raise InputError("-mpm_material mcc: not at finite strain (its elasticity depends on "
                          "the pressure; Hencky's needs a constant one)")
-    material = catalog.make(names["material"], names["E"], names["nu"], names["cohesion"],
-                            names["friction_angle"], names["dilation_angle"],
-                            tension=names["tension_cutoff"])
-    return material, names
+    return recipe.make(E, nu)
 
 
-def _check_given(p) -> None:
-    """InputError for an option that the flowing body does not read."""
-    given = set(p.given)
-    for name in NOT_FLOWING:
-        if name in given:
-            raise InputError(f"-mpm_{name}: not read by -mpm_analysis dynamic with "
-                             "-mpm_kinematics large")
+def _experiment(name, size, recipe):
+    """The experiment ``name`` (None for none), checked to be of the scene's column."""
+    if name == "none":
+        return None
+    e = COLLAPSES[name]
+    if (not np.allclose(size, e.size) or recipe.phi != e.phi or recipe.cohesion != e.cohesion
+            or recipe.name not in ("mohr-coulomb", "drucker-prager")):
+        raise InputError(f"-mpm_experiment {name}: of a {e.size[0]:g} x {e.size[1]:g} m "
+                         f"column of friction angle {e.phi:g} and no cohesion (-mpm_size, "
+                         "-mpm_friction_angle, -mpm_cohesion, -mpm_material)")
+    return e
 
 
-def check_shaken(p) -> None:
-    """InputError for an option of the flowing body given to the shaken one."""
+def check_given(given, kinematics: str) -> None:
+    """InputError for an option ``given`` that the dynamic analysis does not read with
+    ``kinematics`` (large: the flowing body; else the shaken one)."""
+    if kinematics == "large":
+        for name in NOT_FLOWING:
+            if name in given:
+                raise InputError(f"-mpm_{name}: not read by -mpm_analysis dynamic with "
+                                 "-mpm_kinematics large")
+        return
     for name in FLOWING_ONLY:
-        if name in p.given:
+        if name in given:
             raise InputError(f"-mpm_{name}: read by -mpm_analysis dynamic with "
                              "-mpm_kinematics large only")
 
 
 def plan_of(p) -> FlowPlan:
     """The plan of the options ``p`` (InputError for what contradicts itself)."""
-    _check_given(p)
-    material, values = _material(p)
-    grid = _grid(p)
+    check_given(p.given, "large")
+    recipe = catalog.Recipe.from_options(p)
+    material = _material(recipe, p.E, p.nu)
     walls = {side: getattr(p, f"bc_{side}") for side in SIDES
              if getattr(p, f"bc_{side}") != "none"}
     if p.floor_friction and walls.get("bottom") != "y":
@@ -149,31 +145,22 @@ def plan_of(p) -> FlowPlan:
     if p.gravity <= 0:
         raise InputError("-mpm_gravity: the flowing body moves under gravity (give it, "
                          "e.g. 9.81)")
-    soil = Soil(E=values["E"], nu=values["nu"], rho_s=_one("rho_s", p.rho_s),
-                porosity=_one("porosity", p.porosity), rho_l=p.rho_l)
-    wave = math.sqrt(constrained_modulus(values["E"], values["nu"]) / soil.density)
-    experiment = None
-    if p.experiment != "none":
-        experiment = COLLAPSES[p.experiment]
-        mine = (tuple(p.size), values["friction_angle"], values["cohesion"])
-        if (not np.allclose(mine[0], experiment.size) or mine[1] != experiment.phi
-                or mine[2] != experiment.cohesion
-                or values["material"] not in ("mohr-coulomb", "drucker-prager")):
-            raise InputError(f"-mpm_experiment {p.experiment}: of a {experiment.size[0]:g} x "
-                             f"{experiment.size[1]:g} m column of friction angle "
-                             f"{experiment.phi:g} and no cohesion (-mpm_size, "
-                             "-mpm_friction_angle, -mpm_cohesion, -mpm_material)")
-    flip = 0.99 if p.flip == "auto" else float(p.flip)
-    dt = p.dt_safety * min(grid.h) / wave
+    for name in ("rho_s", "porosity"):
+        if isinstance(getattr(p, name), tuple):
+            raise InputError(f"-mpm_{name}: one value (the flowing body is one soil)")
+    grid = _grid(p.size, p.cells, p.grid_size, p.shape)
+    soil = Soil(E=p.E, nu=p.nu, rho_s=p.rho_s, porosity=p.porosity, rho_l=p.rho_l)
+    wave = math.sqrt(constrained_modulus(p.E, p.nu) / soil.density)
     summary = p.summary or os.path.join(p.output, "summary.json")
     options = provenance.options(p)
     given = set(p.given) | set(given_at_start(p.restart))
     return FlowPlan(
         size=tuple(p.size), cells=tuple(p.cells), ppc=p.ppc, grid=grid,
         density=soil.density, material=material, wave=wave, walls=walls,
-        friction=p.floor_friction, gravity=p.gravity, fbar=p.bbar, flip=flip,
-        damping=p.damping, dt=dt, t_end=p.t_end, rest_energy=p.rest_energy,
-        experiment=experiment,
+        friction=p.floor_friction, gravity=p.gravity, fbar=p.bbar,
+        flip=0.99 if p.flip == "auto" else float(p.flip), damping=p.damping,
+        dt=p.dt_safety * min(grid.h) / wave, t_end=p.t_end, rest_energy=p.rest_energy,
+        experiment=_experiment(p.experiment, tuple(p.size), recipe),
         outputs=output.Outputs(p.output, summary, p.figures, p.figure_format),
         cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress),
         restart=p.restart, overwrite=p.overwrite,
@@ -181,11 +168,9 @@ def plan_of(p) -> FlowPlan:
         signature=checkpoint.signature(p), provenance=options)
 
 
-def run(p, comm) -> int:
-    """Run the flowing body of the options ``p`` on ``comm``; returns 0 (a failure raises,
-    after the record has written what it can)."""
-    signals.stage("set-up: the options' checks")
-    plan = plan_of(p)
+def run(plan: FlowPlan, comm) -> int:
+    """Run the flowing body of ``plan`` (:func:`plan_of`) on ``comm``; returns 0 (a failure
+    raises, after the record has written what it can)."""
     record = Record("dynamic", comm)
     guarded(record, lambda: _run(plan, comm, record))
     return 0

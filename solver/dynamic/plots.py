@@ -119,7 +119,7 @@ def deposit(plan, model, final, profile, toe) -> dict:
     surface and failure line) where it has one; beside it the kinetic energy against time.
     ``final``: the points' gathered arrays (x, x0, eps_p), ``profile`` (x, surface) (m)."""
     plt = output.pyplot()
-    fig, (ax, ax_e) = plt.subplots(2, 1, figsize=(8, 6.5),
+    fig, (ax, ax_e) = plt.subplots(2, 1, figsize=(8, 5.2),
                                    gridspec_kw={"height_ratios": [2.2, 1]})
     W, H = plan.size
     ax.plot([0, W, W], [H, H, 0], "k--", lw=1, label="initial shape")

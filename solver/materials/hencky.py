@@ -71,7 +71,8 @@ class Hencky:
 
     def __init__(self, material):
         self.material = material
-        self.compliance = np.linalg.inv(isotropic(material.E, material.nu)[:3, :3])
+        self.stiffness = isotropic(material.E, material.nu)[:3, :3]
+        self.compliance = np.linalg.inv(self.stiffness)
 
     def initial_state(self, n: int) -> dict:
         """Unstrained points: b_e = I, J = 1, the material's history of zero stress."""
@@ -87,7 +88,13 @@ class Hencky:
         eps[:, :2] = 0.5 * np.log(values)
         eps[:, 2] = 0.5 * np.log(state["b_zz"])
         own = {k: v for k, v in state.items() if k not in ("b_e", "b_zz", "J")}
-        tau, own = self.material.update(np.zeros((len(b), 4)), eps, own)
+        if hasattr(self.material, "update_principal"):
+            # The trial stress is principal already: the return alone, without the frame.
+            tau = np.zeros((len(b), 4))
+            tau[:, :3], own = self.material.update_principal(eps[:, :3] @ self.stiffness.T,
+                                                             own)
+        else:
+            tau, own = self.material.update(np.zeros((len(b), 4)), eps, own)
         # The elastic strain after the return, and b_e from it.
         elastic = tau[:, :3] @ self.compliance.T
         J = state["J"] * det2(f)

@@ -51,7 +51,17 @@ class MohrCoulomb(Frictional):
         yielded = dgamma > 0
         out = trial.copy()
         out[yielded] = from_principal(new[yielded], theta[yielded], order[yielded])
-        return out, {"plastic": yielded, "eps_p": state["eps_p"] + dgamma}
+        return out, _history(state, dgamma)
+
+    def update_principal(self, values, state):
+        """(the returned stresses, the new state) of trial principal stresses ``values``
+        (np, 3) (Pa, in any order; returned in the same): the return without the frame,
+        for a caller that has the principal axes already (Hencky's finite strain)."""
+        order = np.argsort(-values, axis=1, kind="stable")
+        new, dgamma = self.principal_return(np.take_along_axis(values, order, axis=1))
+        out = np.empty_like(values)
+        np.put_along_axis(out, order, new, axis=1)
+        return out, _history(state, dgamma)
 
     # -- the return in principal stresses -------------------------------------------------
     def principal_return(self, s) -> tuple:
@@ -75,7 +85,11 @@ class MohrCoulomb(Frictional):
         scale = np.max(np.abs(s), axis=1) + k
         out, dgamma = s.copy(), np.zeros(len(s))
         yielding = f[:, 0] > 1e-12 * scale
-        if not yielding.any():
+        if not yielding.all():
+            # The return of the points that yield alone (in a flow, most do not).
+            some = np.flatnonzero(yielding)
+            if len(some):
+                out[some], dgamma[some] = self.principal_return(s[some])
             return out, dgamma
         # Main plane.
         g = f[:, 0] / A[0, 0]
@@ -152,6 +166,11 @@ class MohrCoulomb(Frictional):
         if left.any():
             raise ArithmeticError("Mohr-Coulomb with a tension cutoff: no active set held")
         return out, dgamma
+
+
+def _history(state, dgamma) -> dict:
+    """A point's history after a return of plastic multiplier dgamma (np,)."""
+    return {"plastic": dgamma > 0, "eps_p": state["eps_p"] + dgamma}
 
 
 # The active sets of the return with a tension cutoff, in the order tried: indices into

@@ -14,8 +14,9 @@ know nothing of the run around them (the plan, the loop, the reporting).
 - ``onephase``: one phase on the nodes: the shaken body (the eigen model's K, lumped M,
   Rayleigh damping), a rigid or compliant base, periodic or absorbing sides;
 - ``flow``: one phase whose points flow across the cells: the explicit updated-Lagrangian
-  step (Hencky's elasticity with the materials' returns, B-splines, walls; no analysis
-  runs it yet).
+  step (Hencky's elasticity with the materials' returns, B-splines, walls, a Coulomb
+  floor), the dynamic analysis's flowing body;
+- ``transfer``: its compiled transfers between the points and the grid (numba).
 
 May import: modal, run, io, references, materials, model, common.
 

@@ -1,5 +1,6 @@
 """The explicit updated-Lagrangian step of one phase on a fixed background grid, whose points
-flow across its cells (:mod:`solver.model.lattice`; no analysis runs it yet).
+flow across its cells (:mod:`solver.model.lattice`; the dynamic analysis's flowing body,
+:mod:`solver.dynamic.flowing`).
 
 Each step (update stress last, FLIP with a share of PIC):
 
