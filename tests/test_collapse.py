@@ -146,6 +146,17 @@ def test_flowing_body_bad_input(cli, tmp_path, args, words):
                        out)
 
 
+def test_a_point_leaving_the_grid_stops_the_run(cli, tmp_path):
+    """On a grid no larger than the column, open on the right, the first point that flows
+    out stops the run in one line, its summary written."""
+    res = cli(COARSE + ["-mpm_grid_size", "0.2,0.1"], options_file="collapse-bui",
+              out_dir=tmp_path / "out")
+    assert res.returncode == 3, res.stderr
+    line = res.stderr.strip()
+    assert "\n" not in line and "left the grid at (0.2" in line and "-mpm_grid_size" in line
+    assert res.summary["completed"] is False and res.summary["error"]["kind"] == "numerical"
+
+
 def test_shaken_body_refuses_the_flowing_options(cli, tmp_path):
     out = tmp_path / "out"
     assert_input_error(cli(["-mpm_gravity", "9.81"], options_file="dynamic-uniform",

@@ -74,6 +74,7 @@ class Flow:
         # The ghost node under each (B-splines: the row below; hat functions have none).
         self.under = self.floor - grid.shape[0] if grid.ghost else None
         self.mpi = comm.tompi4py() if comm is not None and comm.getSize() > 1 else None
+        self.extent = np.array(grid.cells, dtype=float) * np.array(grid.h)
         self.hencky = Hencky(material)
         self.state = self.hencky.initial_state(len(self.x))
         self.sigma = np.zeros((len(self.x), 4))      # Cauchy: xx, yy, zz, xy (Pa)
@@ -109,21 +110,23 @@ class Flow:
         return (3 if lat.kind == "bspline" else 2, lat.ghost, np.asarray(lat.h, dtype=float),
                 lat.shape[0])
 
-    def _inside(self) -> None:
-        """A point beyond the grid has no nodes: NumericalError, naming it."""
-        extent = np.array(self.grid.cells) * np.array(self.grid.h)
-        out = np.flatnonzero(np.any((self.x < 0) | (self.x > extent), axis=1))
-        if len(out):
-            x, y = self.x[out[0]]
-            raise NumericalError(f"a material point left the grid at ({x:.4g}, {y:.4g}) m "
-                                 f"(t = {self.time:.4g} s): enlarge -mpm_grid_size")
+    def _left(self, p: int) -> None:
+        """NumericalError: point p of this rank (-1: of another) left the grid, where it
+        has no nodes."""
+        where = "" if p < 0 else " at ({:.4g}, {:.4g}) m".format(*self.x[p])
+        raise NumericalError(f"a material point left the grid{where} (t = {self.time:.4g} "
+                             "s): enlarge -mpm_grid_size")
 
     def step(self, dt: float) -> None:
         """One explicit step of dt (s)."""
-        self._inside()
         sums = np.empty((self.grid.n_nodes, transfer.NS))
         V = self.V0 * self.J
-        transfer.points_to_grid(self.x, self.v, self.m, V, self.sigma, *self._args(), sums)
+        out = transfer.points_to_grid(self.x, self.v, self.m, V, self.sigma, *self._args(),
+                                      self.extent, sums)
+        # Every rank stops where a point of any one has left the grid.
+        left = out >= 0 if self.mpi is None else self.mpi.allreduce(out >= 0, op=MPI.LOR)
+        if left:
+            self._left(out)
         if self.mpi is not None:      # each rank's points, one grid: the sums over all ranks
             self.mpi.Allreduce(MPI.IN_PLACE, sums)
         mass, mom, force = sums[:, 0], sums[:, 1:3], sums[:, 3:5]

@@ -39,15 +39,18 @@ def _weights(u, k, N, dN):
 
 
 @_jit
-def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, sums):
+def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, extent, sums):
     """Add the points' masses m (kg per m), momenta m v and internal forces -V sigma grad N
     (N per m) into ``sums`` (n_nodes, NS), zeroed here: x, v (np, 2) (m, m/s), the
     current volumes V (np,) (m2), the Cauchy stresses sigma (np, 4) (xx, yy, zz, xy; Pa),
     ``k`` functions per direction on cells ``h`` (2,) (m), ``ghost`` layers, ``nxn`` nodes
-    per row."""
+    per row. Returns -1, or the first point outside the grid [0, extent] (its nodes
+    would lie beyond the arrays: nothing more is added)."""
     sums[:] = 0.0
     Nx, dNx, Ny, dNy = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     for p in range(x.shape[0]):
+        if not (0.0 <= x[p, 0] <= extent[0] and 0.0 <= x[p, 1] <= extent[1]):
+            return p
         ix = _weights(x[p, 0] / h[0], k, Nx, dNx) + ghost
         iy = _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost
         mp, vx, vy = m[p], v[p, 0], v[p, 1]
@@ -64,6 +67,7 @@ def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, sums):
                 sums[a, 2] += N * mp * vy
                 sums[a, 3] -= Vp * (sxx * gx + sxy * gy)
                 sums[a, 4] -= Vp * (sxy * gx + syy * gy)
+    return -1
 
 
 @_jit
