@@ -34,10 +34,9 @@ if __name__ == "__main__":      # a command, not an import: see solver.studies.s
 
     start()
 
-from solver.studies import study  # noqa: E402
-
-sys.path.insert(0, os.path.join(ROOT, "scripts"))
 import benchmark  # noqa: E402  (scripts/benchmark: launch scripts/step-benchmark)
+
+from solver.studies import study  # noqa: E402
 
 SCENE = "cases/collapse-bui.opts"
 TARGET_S = 60.0
