@@ -98,9 +98,10 @@ def _grid(size, cells, grid_size, kind) -> lattice.Lattice:
 def _material(recipe, E, nu):
     """The material of the ``recipe`` (:class:`catalog.Recipe`) of constant elasticity
     (Hencky's): one soil."""
-    if recipe.name == "mcc":
-        raise InputError("-mpm_material mcc: not at finite strain (its elasticity depends on "
-                         "the pressure; Hencky's needs a constant one)")
+    if recipe.name in ("mcc", "hyperbolic"):
+        raise InputError(f"-mpm_material {recipe.name}: not at finite strain (Hencky's "
+                         "return needs a constant elasticity and a stress that its elastic "
+                         "strain gives)")
     return recipe.make(E, nu)
 
 

@@ -264,8 +264,11 @@ SPEC = [
     # -- materials, soil tests and the static analysis ------------------------------------
     Option("material", "str_or_strs", "elastic", "the soil's model: elastic, tresca (undrained "
            "strength -mpm_cohesion, total stress), mohr-coulomb, drucker-prager (matched to "
-           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay); consolidation: per layer",
-           MATERIAL, choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")),
+           "Mohr-Coulomb in plane strain), mcc (Modified Cam Clay), hyperbolic (a multi-surface J2 "
+           "soil in total stress: the hyperbolic backbone with Masing's hysteresis); "
+           "consolidation: per layer",
+           MATERIAL, choices=("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc",
+                              "hyperbolic")),
     Option("cohesion", "float_or_floats", 0.0, "cohesion c (Pa); tresca: the undrained "
            "strength c_u; consolidation: per layer", MATERIAL, checks.nonnegative),
     Option("friction_angle", "float_or_floats", 0.0, "friction angle phi (degrees); consolidation: "
@@ -281,12 +284,23 @@ SPEC = [
     Option("void_ratio", "float", float("nan"), "mcc: void ratio e0", MATERIAL, checks.positive),
     Option("mcc_ocr", "float", 1.0, "mcc: overconsolidation ratio p_c / p'_0", MATERIAL, lambda v:
            None if v >= 1 else "must be at least 1"),
+    Option("reference_strain", "float_or_floats", math.nan, "hyperbolic: the reference shear "
+           "strain gamma_r (engineering) of the backbone tau = G gamma / (1 + gamma / "
+           "gamma_r); consolidation: per layer", MATERIAL, checks.positive),
+    Option("surfaces", "int", 40, "hyperbolic: the surfaces (elements) of the Iwan model, a "
+           "multiple of 5, log-spaced over 1e-3 .. 1e2 gamma_r (the backbone exact at "
+           "each decade)", MATERIAL,
+           lambda v: None if v >= 5 and v % 5 == 0 else "must be a multiple of 5"),
     Option("soiltest", "str", "triaxial-drained", "the soil test", (SOILTEST,), choices=(
-        "triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear", "oedometer")),
+        "triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear", "oedometer",
+        "simple-shear-cyclic")),
+    Option("cycles", "int", 2, "simple-shear-cyclic: the full cycles of shear strain between "
+           "+-strain_end after the first loading", (SOILTEST,), checks.at_least_one),
     Option("confining", "float", 100e3, "the soil test's initial isotropic effective stress, "
            "drained its cell pressure (Pa)", (SOILTEST,), checks.nonnegative),
     Option("strain_end", "float", 0.1, "the soil test's axial (simple shear: shear) strain "
-           "at the end, compression positive", (SOILTEST,), checks.positive),
+           "at the end, compression positive; simple-shear-cyclic: the shear strain's "
+           "amplitude", (SOILTEST,), checks.positive),
     Option("strain_steps", "int", 500, "soil test steps", (SOILTEST,), checks.at_least_one),
     Option("footing", "floats", (), "the rigid strip footing x0,x1 on the top (m; a half "
            "model: 0,B/2 with rollers on x = 0)", (STATIC,), length=2),
@@ -317,4 +331,4 @@ NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "
                "rock_Vs", "rock_Vp", "rock_rho", "bc_sides", "rayleigh", "record_depths",
                "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",
                "jacobi_tol", "jacobi_max_sweeps", "element", "points", "mcc_M", "mcc_lambda",
-               "mcc_kappa", "void_ratio", "mcc_ocr")
+               "mcc_kappa", "void_ratio", "mcc_ocr", "reference_strain", "surfaces")

@@ -13,12 +13,14 @@ the radial strain as both xx and zz.
   return in principal stresses onto the plane, either edge and the apex;
 - ``drucker_prager``: the cone matched to Mohr-Coulomb in plane strain;
 - ``cam_clay``: Modified Cam Clay with a pressure-dependent bulk modulus, implicit return;
+- ``hyperbolic``: the hyperbolic backbone with Masing's hysteresis, a multi-surface (Iwan)
+  J2 model in total stress;
 - ``catalog``: a material from its name and parameters, checked;
 - ``history``: one material per layer over a body's points, their history in point fields,
   and the linear analyses' stiffness from the elastic law (``elasticity_of``);
 - ``soiltest``: one point driven through a laboratory test's path;
 - ``hencky``: the same returns at finite strain (Hencky elasticity, principal logarithmic
-  strain): the large-deformation issue's stress update, not yet wired to an analysis.
+  strain): the stress update of the flowing body (large deformation).
 
 May import: model, common.
 """

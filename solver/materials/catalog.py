@@ -10,18 +10,21 @@ from dataclasses import dataclass, field
 from ..common.errors import InputError
 from .cam_clay import CamClay
 from .drucker_prager import DruckerPrager
+from .hyperbolic import Hyperbolic
 from .model import Elastic
 from .mohr_coulomb import MohrCoulomb, tresca
 
-NAMES = ("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc")
+NAMES = ("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc", "hyperbolic")
 
 
 def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0,
-         psi: float = math.nan, mcc: dict | None = None, tension: float = math.nan):
+         psi: float = math.nan, mcc: dict | None = None, tension: float = math.nan,
+         hyperbolic: tuple = (math.nan, 40)):
     """The material ``name`` (NAMES) of Young's modulus E (Pa) and Poisson's ratio nu, with
     cohesion (Pa), friction and dilation angles phi, psi (degrees; psi NaN: phi), the Cam
-    Clay parameters ``mcc`` ({M, lam, kappa, e0, ocr}) and a tension cutoff (Pa; NaN:
-    none). InputError for a combination that means nothing."""
+    Clay parameters ``mcc`` ({M, lam, kappa, e0, ocr}), a tension cutoff (Pa; NaN: none)
+    and the hyperbolic soil's (reference strain, surfaces). InputError for a combination
+    that means nothing."""
     psi = phi if math.isnan(psi) else psi
     if not math.isnan(tension) and name not in ("tresca", "mohr-coulomb"):
         raise InputError(f"-mpm_tension_cutoff: only tresca and mohr-coulomb take one (not "
@@ -46,6 +49,12 @@ def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0
         if name == "drucker-prager":
             return DruckerPrager(E, nu, cohesion, phi, psi)
         return MohrCoulomb(E, nu, cohesion, phi, psi, cut)
+    if name == "hyperbolic":
+        gamma_r, surfaces = hyperbolic
+        if not gamma_r > 0:
+            raise InputError("-mpm_material hyperbolic: needs the reference shear strain "
+                             "(-mpm_reference_strain)")
+        return Hyperbolic(E, nu, gamma_r, surfaces)
     if name == "mcc":
         mcc = mcc or {}
         if math.isnan(mcc.get("e0", math.nan)):
@@ -70,13 +79,16 @@ class Recipe:
     psi: object = math.nan
     mcc: dict = field(default_factory=dict)
     tension: object = math.nan
+    reference_strain: object = math.nan
+    surfaces: int = 40
 
     @classmethod
     def from_options(cls, p) -> "Recipe":
         """The ``-mpm_material`` options of ``p``."""
         return cls(p.material, p.cohesion, p.friction_angle, p.dilation_angle,
                    {"M": p.mcc_M, "lam": p.mcc_lambda, "kappa": p.mcc_kappa,
-                    "e0": p.void_ratio, "ocr": p.mcc_ocr}, p.tension_cutoff)
+                    "e0": p.void_ratio, "ocr": p.mcc_ocr}, p.tension_cutoff,
+                   p.reference_strain, p.surfaces)
 
     @property
     def names(self) -> tuple:
@@ -90,14 +102,16 @@ class Recipe:
     @property
     def layered(self) -> bool:
         return any(isinstance(v, tuple) for v in (self.name, self.cohesion, self.phi,
-                                                  self.psi, self.tension))
+                                                  self.psi, self.tension,
+                                                  self.reference_strain))
 
     def layer(self, i: int) -> "Recipe":
         """Layer i's recipe (from the surface down)."""
         def pick(v):
             return v[i] if isinstance(v, tuple) else v
         return Recipe(pick(self.name), pick(self.cohesion), pick(self.phi), pick(self.psi),
-                      self.mcc, pick(self.tension))
+                      self.mcc, pick(self.tension), pick(self.reference_strain),
+                      self.surfaces)
 
     def make(self, E: float, nu: float):
         """The material of Young's modulus E (Pa) and Poisson's ratio nu (:func:`make`); one
@@ -106,19 +120,21 @@ class Recipe:
             raise InputError("-mpm_material, -mpm_E, -mpm_nu: one material here, one value "
                              "each (per layer only in the consolidation analysis)")
         return make(self.name, E, nu, self.cohesion, self.phi, self.psi, self.mcc,
-                    self.tension)
+                    self.tension, (self.reference_strain, self.surfaces))
 
     def per_layer(self, soils) -> tuple:
         """One material per layer of ``soils`` (each layer's E and nu); InputError for
         lists of another length than the layers."""
         for option, v in (("material", self.name), ("cohesion", self.cohesion),
                           ("friction_angle", self.phi), ("dilation_angle", self.psi),
-                          ("tension_cutoff", self.tension)):
+                          ("tension_cutoff", self.tension),
+                          ("reference_strain", self.reference_strain)):
             if isinstance(v, tuple) and len(v) != len(soils):
                 raise InputError(f"-mpm_{option}: {len(v)} values for {len(soils)} "
                                  "layer(s); give one value or one per layer")
         out = []
         for i, s in enumerate(soils):
             r = self.layer(i)
-            out.append(make(r.name, s.E, s.nu, r.cohesion, r.phi, r.psi, r.mcc, r.tension))
+            out.append(make(r.name, s.E, s.nu, r.cohesion, r.phi, r.psi, r.mcc, r.tension,
+                            (r.reference_strain, r.surfaces)))
         return tuple(out)

@@ -522,3 +522,20 @@ def large_strain_column(a, t, H0: float, q: float, m_vl: float, k0: float,
     u = q + np.log(zeta_inf + (1.0 - zeta_inf) * P) / m_vl
     settlement = H0 * (1.0 - zeta_inf) * column_degree(Tv, drained)
     return u, settlement
+
+
+def masing_damping(x):
+    """The damping ratio (-) of a cycle at strain amplitude x = gamma_a / gamma_r of a soil
+    whose backbone is the hyperbola tau = G gamma / (1 + gamma / gamma_r) and whose loops
+    follow Masing's rules: the loop's area over 4 pi times tau_a gamma_a / 2,
+
+        xi = (4 / pi) (1 + 1 / x) (1 - ln(1 + x) / x) - 2 / pi      (0.1448 at x = 1)
+
+    (the area of the loop of branches 2 F(d / 2) about each tip, in closed form)."""
+    x = np.asarray(x, dtype=float)
+    return (4 / np.pi) * (1 + 1 / x) * (1 - np.log1p(x) / x) - 2 / np.pi
+
+
+def hyperbolic_modulus_ratio(x):
+    """G_secant / G_max (-) of the hyperbolic backbone at x = gamma / gamma_r: 1 / (1 + x)."""
+    return 1.0 / (1.0 + np.asarray(x, dtype=float))
