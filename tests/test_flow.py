@@ -104,3 +104,42 @@ def test_a_rigid_rotation_keeps_the_stress_invariants():
     f = np.eye(2) + dt * L[0]
     assert np.linalg.det(f) ** steps - 1 > 0.012                    # what I + dt L does
     assert abs(np.linalg.det(increment(L, dt)[0]) - 1) < 1e-14
+
+
+@pytest.mark.parametrize("kind", lattice.KINDS)
+def test_the_compiled_transfers_are_the_numpy_ones(kind):
+    """The compiled transfers (solver/stepping/transfer.py) against lattice.evaluate's
+    functions summed by NumPy: the nodal masses, momenta and internal forces, and the
+    points' interpolated accelerations, velocities and velocity gradients."""
+    from solver.stepping import transfer
+
+    rng = np.random.default_rng(7)
+    grid = lattice.Lattice(kind, (6, 4), (0.25, 0.5))
+    n = 200
+    x = rng.uniform(0, 1, (n, 2)) * np.array([1.5, 2.0])
+    v, m, V = rng.standard_normal((n, 2)), rng.uniform(1, 2, n), rng.uniform(0.1, 0.2, n)
+    sigma = rng.standard_normal((n, 4))
+    nodes, N, G = lattice.evaluate(grid, x)
+    nn = grid.n_nodes
+
+    def gather(values):
+        return np.bincount(nodes.ravel(), weights=values.ravel(), minlength=nn)
+
+    mN = N * m[:, None]
+    expected = np.stack([
+        gather(mN), gather(mN * v[:, :1]), gather(mN * v[:, 1:]),
+        gather(-(sigma[:, 0:1] * G[..., 0] + sigma[:, 3:4] * G[..., 1]) * V[:, None]),
+        gather(-(sigma[:, 3:4] * G[..., 0] + sigma[:, 1:2] * G[..., 1]) * V[:, None])], 1)
+    args = (3 if kind == "bspline" else 2, grid.ghost, np.array(grid.h), grid.shape[0])
+    sums = np.empty((nn, transfer.NS))
+    assert transfer.points_to_grid(x, v, m, V, sigma, *args, np.array([1.5, 2.0]), sums) == -1
+    np.testing.assert_allclose(sums, expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    a, vn = rng.standard_normal((nn, 2)), rng.standard_normal((nn, 2))
+    ap, vp, L = np.empty((n, 2)), np.empty((n, 2)), np.empty((n, 2, 2))
+    transfer.grid_to_points(x, a, vn, *args, ap, vp, L)
+    np.testing.assert_allclose(ap, np.einsum("pa,pad->pd", N, a[nodes]), atol=1e-12)
+    np.testing.assert_allclose(vp, np.einsum("pa,pad->pd", N, vn[nodes]), atol=1e-12)
+    np.testing.assert_allclose(L, np.einsum("pai,paj->pij", vn[nodes], G), atol=1e-11)
+    # A point beyond the grid is named, not summed.
+    x[17] = [1.6, 0.5]
+    assert transfer.points_to_grid(x, v, m, V, sigma, *args, np.array([1.5, 2.0]), sums) == 17

@@ -39,6 +39,19 @@ def _weights(u, k, N, dN):
 
 
 @_jit
+def _point(x, p, k, ghost, h, Nx, dNx, Ny, dNy):
+    """Point p's functions into Nx, dNx, Ny, dNy and the (column, row) of its first node."""
+    return (_weights(x[p, 0] / h[0], k, Nx, dNx) + ghost,
+            _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost)
+
+
+@_jit
+def _node(b, c, h, Nx, dNx, Ny, dNy):
+    """(N, dN/dx, dN/dy) of the point's node c across, b up (1/m)."""
+    return Ny[b] * Nx[c], Ny[b] * dNx[c] / h[0], dNy[b] * Nx[c] / h[1]
+
+
+@_jit
 def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, extent, sums):
     """Add the points' masses m (kg per m), momenta m v and internal forces -V sigma grad N
     (N per m) into ``sums`` (n_nodes, NS), zeroed here: x, v (np, 2) (m, m/s), the
@@ -51,17 +64,14 @@ def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, extent, sums):
     for p in range(x.shape[0]):
         if not (0.0 <= x[p, 0] <= extent[0] and 0.0 <= x[p, 1] <= extent[1]):
             return p
-        ix = _weights(x[p, 0] / h[0], k, Nx, dNx) + ghost
-        iy = _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost
+        ix, iy = _point(x, p, k, ghost, h, Nx, dNx, Ny, dNy)
         mp, vx, vy = m[p], v[p, 0], v[p, 1]
         sxx, syy, sxy, Vp = sigma[p, 0], sigma[p, 1], sigma[p, 3], V[p]
         for b in range(k):
             row = (iy + b) * nxn + ix
             for c in range(k):
                 a = row + c
-                N = Ny[b] * Nx[c]
-                gx = Ny[b] * dNx[c] / h[0]
-                gy = dNy[b] * Nx[c] / h[1]
+                N, gx, gy = _node(b, c, h, Nx, dNx, Ny, dNy)
                 sums[a, 0] += N * mp
                 sums[a, 1] += N * mp * vx
                 sums[a, 2] += N * mp * vy
@@ -77,17 +87,14 @@ def grid_to_points(x, a, vnew, k, ghost, h, nxn, ap, vp, L):
     the nodal a and vnew (n_nodes, 2) at the points' positions x (np, 2) (m)."""
     Nx, dNx, Ny, dNy = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     for p in range(x.shape[0]):
-        ix = _weights(x[p, 0] / h[0], k, Nx, dNx) + ghost
-        iy = _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost
+        ix, iy = _point(x, p, k, ghost, h, Nx, dNx, Ny, dNy)
         s0 = s1 = s2 = s3 = 0.0
         l00 = l01 = l10 = l11 = 0.0
         for b in range(k):
             row = (iy + b) * nxn + ix
             for c in range(k):
                 n = row + c
-                N = Ny[b] * Nx[c]
-                gx = Ny[b] * dNx[c] / h[0]
-                gy = dNy[b] * Nx[c] / h[1]
+                N, gx, gy = _node(b, c, h, Nx, dNx, Ny, dNy)
                 s0 += N * a[n, 0]
                 s1 += N * a[n, 1]
                 s2 += N * vnew[n, 0]
