@@ -21,7 +21,7 @@ from ..io import output
 from ..references import site, spectra
 
 COLUMNS = ("a_x", "v_x", "u_x", "a_y", "v_y", "u_y", "p_pa")
-PERIODS = np.logspace(-2, 1, 100)          # of the pseudo-spectral accelerations (s)
+PERIODS = np.logspace(-2, 1, 100)     # the pseudo-spectral accelerations' by default (s)
 F_MAX = 50.0                               # highest frequency written to spectra.csv (Hz)
 PEAK_BAND = 0.01        # resonances are sought where the input has 1 % of its peak amplitude
 PROMINENCE = 0.1        # and stand 10 % above the trough beside them
@@ -102,12 +102,13 @@ class StepSpectra:
 
     CHUNK = 1 << 16
 
-    def __init__(self, motion, dt: float, lag: float = 0.0, frame: bool = False):
+    def __init__(self, motion, dt: float, lag: float = 0.0, frame: bool = False,
+                 psa=(PERIODS, 0.05)):
         self.motion, self.dt, self.lag, self.frame = motion, dt, lag, frame
         self.values = np.zeros(self.CHUNK)
         self.fed = self.done = 0          # steps the oscillators have, steps kept
-        self.surface = spectra.Oscillators(PERIODS, dt)
-        self.input = spectra.Oscillators(PERIODS, dt)
+        self.surface = spectra.Oscillators(psa[0], dt, psa[1])
+        self.input = spectra.Oscillators(psa[0], dt, psa[1])
         self.lost = False                 # restarted from a checkpoint without them
 
     def keep(self, t: float, value: float, mpi) -> None:
@@ -175,12 +176,12 @@ def write_peaks(path, rec: Recorder, H: float, water: bool) -> None:
     output.write_text(path, "\n".join(lines) + "\n")
 
 
-def spectral(rec: Recorder, a_in: np.ndarray, psa=None) -> dict:
+def spectral(rec: Recorder, a_in: np.ndarray, psa=None, oscillators=(PERIODS, 0.05)) -> dict:
     """The spectra of the surface against the input ``a_in`` (m/s2, at the sample times):
     Fourier amplitudes, the transfer function (raw and Konno-Ohmachi smoothed) up to
-    F_MAX where the input has energy, its first three peaks, and 5 %-damped PSA: ``psa``
-    (input, surface) where given (:meth:`StepSpectra.psa`, from every step), else from the
-    samples."""
+    F_MAX where the input has energy, its first three peaks, and the PSA of the
+    ``oscillators`` (periods (s), damping ratio): ``psa`` (input, surface) where given
+    (:meth:`StepSpectra.psa`, from every step), else from the samples."""
     dt = rec.t[1] - rec.t[0]
     surface = rec.history(COLUMNS[3 * rec.comp])
     n = 1 << max(1, math.ceil(math.log2(4 * len(surface))))
@@ -192,11 +193,13 @@ def spectral(rec: Recorder, a_in: np.ndarray, psa=None) -> dict:
     s_in, s_top = spectra.konno_ohmachi(f, np.stack([A_in, A_top]))
     smooth = s_top / s_in
     strong = A_in > PEAK_BAND * np.max(A_in)
+    periods, damping = oscillators
     if psa is None:
-        psa = (spectra.pseudo_acceleration(a_in, dt, PERIODS),
-               spectra.pseudo_acceleration(surface, dt, PERIODS))
+        psa = (spectra.pseudo_acceleration(a_in, dt, periods, damping),
+               spectra.pseudo_acceleration(surface, dt, periods, damping))
     return {"f": f, "input": A_in, "surface": A_top, "transfer": ratio, "smoothed": smooth,
             "peaks": resonances(f[strong], ratio[strong], smooth[strong]),
+            "periods": np.asarray(periods), "psa_damping": damping,
             "psa_input": psa[0], "psa_surface": psa[1]}
 
 
@@ -225,11 +228,11 @@ def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:
 def write_spectra(path, spec: dict) -> None:
     """spectra.csv (long format): ``fourier`` rows (x: f in Hz; input and surface Fourier
     amplitudes in m/s; the transfer function raw and smoothed), then ``psa`` rows (x: the
-    period in s; input and surface 5 %-damped PSA in m/s2; their ratio)."""
+    period in s; input and surface PSA in m/s2 at -mpm_psa_damping; their ratio)."""
     lines = ["kind,x,input,surface,transfer,transfer_smoothed"]
     for row in zip(spec["f"], spec["input"], spec["surface"], spec["transfer"],
                    spec["smoothed"]):
         lines.append("fourier," + ",".join(f"{v:.6e}" for v in row))
-    for T, a, b in zip(PERIODS, spec["psa_input"], spec["psa_surface"]):
+    for T, a, b in zip(spec["periods"], spec["psa_input"], spec["psa_surface"]):
         lines.append(f"psa,{T:.6e},{a:.6e},{b:.6e},{b / a if a else math.nan:.6e},")
     output.write_text(path, "\n".join(lines) + "\n")

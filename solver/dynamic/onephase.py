@@ -46,7 +46,7 @@ class NodalModel:
         self.points = b.points
         self._surface(ny, nx)
         self.spectra = histories.StepSpectra(plan.motion, self.dt,
-                                             frame=b.shaking.base == "rigid")
+                                             frame=b.shaking.base == "rigid", psa=plan.psa)
 
     def _surface(self, ny: int, nx: int) -> None:
         """The weights of this rank's reduced DOFs in the surface row's mean acceleration

@@ -24,6 +24,7 @@ from ..model.soil import Ground
 from ..modal.frequency import lowest
 from ..references import layered
 from ..stepping.onephase import Shaking, rayleigh
+from . import histories
 
 EIGEN_DOFS = 2000          # the dense Jacobi solve's largest problem here (about 30 s)
 MAX_STEPS = 5e7
@@ -56,6 +57,7 @@ class DynamicPlan:
     signature: str
     restart: str
     cadence: tuple          # (output_every, checkpoint_every, checkpoint_seconds, progress)
+    psa: tuple = (histories.PERIODS, 0.05)     # the spectra's periods (s) and damping
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,6 +82,7 @@ class Request:
     jacobi: tuple              # (tolerance, sweeps)
     outputs: output.Outputs
     cadence: tuple             # (output_every, checkpoint_every, checkpoint_seconds, progress)
+    psa: tuple                 # the spectra's periods (s) and damping ratio
     restart: str
     overwrite: bool
     run: dict                  # {"id": None, "options": the options as read}
@@ -105,6 +108,8 @@ class Request:
                    depths=tuple(p.record_depths), loading=loading, water=p.rho_l > 0,
                    jacobi=(p.jacobi_tol, p.jacobi_max_sweeps),
                    outputs=output.Outputs(p.output, summary, p.figures, p.figure_format),
+                   psa=(np.logspace(np.log10(p.psa_periods[0]), np.log10(p.psa_periods[1]),
+                                    int(p.psa_periods[2])), p.psa_damping),
                    cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
                             p.progress), restart=p.restart, overwrite=p.overwrite,
                    run={"id": None, "options": checkpoint.recorded(options),
@@ -205,4 +210,5 @@ def plan_of(req: Request, comm) -> DynamicPlan:
                        t_end=req.t_end, record_dt=req.record_dt, depths=req.depths,
                        eigen_hz=eig, eigen_solver=solver, analytic_hz=analytic,
                        damping=damping, outputs=req.outputs, run=dict(req.run),
-                       signature=req.signature, restart=req.restart, cadence=req.cadence)
+                       signature=req.signature, restart=req.restart, cadence=req.cadence,
+                       psa=req.psa)

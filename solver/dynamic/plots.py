@@ -80,10 +80,10 @@ def _spectra(plt, plan, spec):
     ax2.set_xlabel("f (Hz)")
     ax2.set_ylabel("Fourier amplitude (m/s)")
     ax2.legend(fontsize=7)
-    ax3.semilogx(histories.PERIODS, spec["psa_input"], label="input")
-    ax3.semilogx(histories.PERIODS, spec["psa_surface"], label="surface")
+    ax3.semilogx(spec["periods"], spec["psa_input"], label="input")
+    ax3.semilogx(spec["periods"], spec["psa_surface"], label="surface")
     ax3.set_xlabel("period (s)")
-    ax3.set_ylabel("PSA, 5 % damping (m/s$^2$)")
+    ax3.set_ylabel(f"PSA, {100 * spec['psa_damping']:g} % damping (m/s$^2$)")
     ax3.legend(fontsize=7)
     for ax in (ax1, ax2, ax3):
         ax.grid(alpha=0.3, which="both")

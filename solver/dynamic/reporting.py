@@ -142,7 +142,7 @@ def finish(plan, model, rec, series, record, comm) -> None:
     spec = exact = None
     if plan.motion.form[0] != "none" and len(t) > 8:
         a_in = plan.motion.acceleration(t)
-        spec = histories.spectral(rec, a_in, model.spectra.psa(model.mpi))
+        spec = histories.spectral(rec, a_in, model.spectra.psa(model.mpi), plan.psa)
         block.update(pga_input=float(np.max(np.abs(a_in))),
                      pga_surface=block["peak_surface_acceleration"])
         if not rings(plan):
@@ -162,6 +162,9 @@ def finish(plan, model, rec, series, record, comm) -> None:
                                  a0=plan.shaking.a0, a1=plan.shaking.a1)
     if model.water:
         block.update(model.references(rec))
+    warning = strain_warning(rec, plan.body.height)
+    if warning:
+        block["warnings"] = [warning]
     _print_results(block, comm)
     record.results.update(block)
     files = record.files
@@ -179,6 +182,25 @@ def finish(plan, model, rec, series, record, comm) -> None:
         if fields:
             files["fields_xdmf"], files["fields_h5"] = fields[0], fields[1:]
     record.finish()
+
+
+LINEAR_STRAIN = 1e-4     # past it a real soil has lost a tenth of its modulus or more
+
+
+def strain_warning(rec, H: float) -> str:
+    """What a run must say when its linear soil strained past LINEAR_STRAIN (the peak
+    strain and where), or ''."""
+    if not len(rec.peak_strain):
+        return ""
+    k = int(np.argmax(rec.peak_strain))
+    peak = float(rec.peak_strain[k])
+    if peak <= LINEAR_STRAIN:
+        return ""
+    depth = H - 0.5 * (rec.heights[k] + rec.heights[k + 1])
+    kind = "shear" if rec.comp == 0 else "axial"
+    return (f"the peak {kind} strain {peak:.3g} ({100 * peak:.3g} %) at {depth:.4g} m depth "
+            f"is past {LINEAR_STRAIN:g}, where real soils soften and damp by hysteresis; "
+            "this soil is linear elastic, so its response there is overstated")
 
 
 def _print_results(block, comm) -> None:
@@ -200,5 +222,6 @@ def _print_results(block, comm) -> None:
     for key, text in (("front", "Front"), ("jump", "Pressure jump"), ("late", "Late")):
         if key in block:
             lines.append(f"{text}: {block[key]['words']}")
+    lines += [f"Warning: {w}" for w in block.get("warnings", ())]
     for line in lines:
         PETSc.Sys.Print(line, comm=comm)

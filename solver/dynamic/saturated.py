@@ -74,7 +74,8 @@ class SaturatedColumn:
         self.heights = np.unique(np.round(np.concatenate(self.mpi.allgather(y0)), 12))
         self._rows()
         self.v_before = self.points.get("vs").copy()
-        self.spectra = StepSpectra(plan.motion, self.dt, lag=self.dt, frame=True)
+        self.spectra = StepSpectra(plan.motion, self.dt, lag=self.dt, frame=True,
+                                   psa=plan.psa)
 
     def _rows(self):
         y0 = self.points.get("x0")[:, 1]

@@ -110,3 +110,13 @@ def tolerance(v):
 def angle(v):
     """An angle in degrees in [0, 90), or NaN (not given)."""
     return None if v != v or 0 <= v < 90 else "must lie in [0, 90)"
+
+
+def psa_periods(vs):
+    """T_MIN,T_MAX,N: 0 < T_MIN < T_MAX and N a whole number of at least 2."""
+    t0, t1, n = vs
+    if not 0 < t0 < t1:
+        return "give T_MIN,T_MAX,N with 0 < T_MIN < T_MAX (s)"
+    if n != int(n) or n < 2:
+        return "N, the number of periods, must be a whole number of at least 2"
+    return None

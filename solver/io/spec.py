@@ -241,6 +241,12 @@ SPEC = [
            "(Hz; default f1 and 5 f1 of the Jacobi eigen analysis of the same column); "
            "none when not given", (DYNAMIC,), checks.rayleigh),
     Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), checks.positive),
+    Option("psa_damping", "float", 0.05, "the damping ratio of the pseudo-spectral "
+           "accelerations' oscillators (-)", (DYNAMIC,),
+           lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
+    Option("psa_periods", "floats", (0.01, 10.0, 100.0), "the periods of the pseudo-spectral "
+           "accelerations: T_MIN,T_MAX,N, N periods log-spaced from T_MIN to T_MAX (s)",
+           (DYNAMIC,), checks.psa_periods, length=3),
     # -- large deformation: -mpm_kinematics large in the dynamic analysis ------------------
     Option("grid_size", "floats", (), "large: the background grid W,H from the origin (m), "
            "the body at its origin, each a whole number of the body's cells (default: the "
@@ -331,4 +337,5 @@ NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "
                "rock_Vs", "rock_Vp", "rock_rho", "bc_sides", "rayleigh", "record_depths",
                "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",
                "jacobi_tol", "jacobi_max_sweeps", "element", "points", "mcc_M", "mcc_lambda",
-               "mcc_kappa", "void_ratio", "mcc_ocr", "reference_strain", "surfaces")
+               "mcc_kappa", "void_ratio", "mcc_ocr", "reference_strain", "surfaces",
+               "psa_damping", "psa_periods")
