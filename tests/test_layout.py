@@ -16,8 +16,9 @@ LONG = {"kernels", "jacobi"}
 # At most MAX_TAKING_OPTIONS functions read the options: each analysis's edge (its run and
 # plan) and the few that check them against each other (20 with three analyses; the soil
 # test's and the static analysis's run and plan made 24; the material's recipe, which three
-# analyses share, 25; the plan of the flowing body, the dynamic analysis's second edge, 26).
-MAX_LINES, MAX_FUNCTION_LINES, MAX_TAKING_OPTIONS = 600, 80, 26
+# analyses share, 25; the plan of the flowing body, the dynamic analysis's second edge, 26;
+# the large-strain column's plan, the consolidation analysis's second edge, 27).
+MAX_LINES, MAX_FUNCTION_LINES, MAX_TAKING_OPTIONS = 600, 80, 27
 MAX_DRIVER_LINES = 300
 
 

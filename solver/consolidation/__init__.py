@@ -14,6 +14,8 @@ what it reports and the references set beside it. The explicit step is one of th
 - ``settlement``: the surface settlement and the degree of consolidation;
 - ``workprecision``: measured work-precision data and the pick of -mpm_target_error;
 - ``fe_reference``: the finite-element reference of a scene without a closed form;
+- ``largestrain``: the large-strain column (implicit, moving points): its plan, the model
+  the loop drives, its report beside Xie and Leo's closed form;
 - ``implicit/``: the implicit quasi-static scheme and the choice between the schemes (its
   own room, before this one).
 

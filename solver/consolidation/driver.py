@@ -24,13 +24,17 @@ import os
 from ..common import signals
 from ..run.loop import Saving, drive
 from ..run.record import Record, guarded, owned
-from . import results, setup
+from . import largestrain, results, setup
 from .model import Consolidation
 
 
 def run(p, comm) -> int:
     """Run the consolidation scene of the options ``p`` on ``comm``; returns 0 (a failure
     raises, after the record has written what it can)."""
+    large = p.kinematics == "large" and p.scheme == "implicit"
+    largestrain.check_given(p.given, p.from_file, large)
+    if large:
+        return largestrain.run(largestrain.plan_of(p, comm), comm)
     record = Record("consolidation", comm)
     with owned(comm) as stack:
         guarded(record, lambda: _run(setup.set_up(p, comm, record, stack), comm, record,

@@ -294,3 +294,37 @@ def settlement_time_2d(plt, t, axis, mean, x_axis: float, extent, fe, ends, titl
                         va="bottom")
     _settlement_axes(ax, unit, title)
     return fig
+
+
+def large_strain(plan, model, t, s, small, ref) -> dict:
+    """The large-strain column's figure: the settlement against time (log) beside the small
+    strain's and, where the scene is theirs, Xie and Leo's; and the excess pore pressure
+    against the height before the load at the report times, theirs dashed."""
+    plt = output.pyplot()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
+    keep = t > 0
+    a.semilogx(t[keep], s[keep], "C0-", label="large strain (MPM)")
+    a.semilogx(t[keep], small[keep], "C7--", label="small strain (Terzaghi)")
+    if ref is not None:
+        a.semilogx(t[keep], ref[keep], "k:", lw=1.6, label="Xie and Leo (2004)")
+    a.invert_yaxis()
+    a.set_xlabel("t (s)")
+    a.set_ylabel("settlement (m)")
+    a.grid(alpha=0.3, which="both")
+    a.legend(fontsize=8)
+    q, soil, body = plan.loading.load, plan.soil, plan.body
+    colors = tv_colors(plt, len(model.profiles))
+    order = np.argsort(model.y0)
+    for (tv, ti), (_, p), c in zip(plan.reports.items(), model.profiles, colors):
+        b.plot(p[order] / q, model.y0[order], "-", color=c, label=f"T_v = {tv:.4g}")
+        if ref is not None:
+            u = analytic.large_strain_column(model.y0[order], ti, body.size[1], q,
+                                             1 / soil.constrained_modulus, soil.k,
+                                             soil.unit_weight_water, body.drained)[0]
+            b.plot(u / q, model.y0[order], ":", color="k", lw=1.2)
+    b.set_xlabel("excess pore pressure / q")
+    b.set_ylabel("height before the load (m)")
+    b.grid(alpha=0.3)
+    b.legend(fontsize=8)
+    fig.tight_layout()
+    return output.save_figures(fig, plan.outputs.folder, "large_strain", plan.outputs.formats)

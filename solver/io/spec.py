@@ -110,6 +110,14 @@ SPEC = [
            choices=("auto", "explicit", "implicit")),
     Option("implicit_steps", "int", 8, "implicit scheme: time steps per doubling of time "
            "(report times are step ends)", (CONSOLIDATION,), checks.at_least_one),
+    Option("k_law", "str", "constant", "-mpm_scheme implicit -mpm_kinematics large: the "
+           "permeability with the void ratio: constant, power:A (k ((1 + e) / (1 + e0))^A; "
+           "A = 2 is Gibson's and Xie and Leo's), kozeny-carman (k (e^3 / (1 + e)) / (e0^3 / "
+           "(1 + e0)))", (CONSOLIDATION,)),
+    Option("large_strain_stress", "str", "kirchhoff", "-mpm_scheme implicit -mpm_kinematics "
+           "large: the stress linear in the logarithmic strain: kirchhoff (Hencky) or cauchy "
+           "(a constant m_vl, Xie and Leo's)", (CONSOLIDATION,),
+           choices=("kirchhoff", "cauchy")),
     Option("pressure_stabilization", "str", "auto", "implicit scheme: ppp (Dohrmann and "
            "Bochev's polynomial pressure projection, which keeps the undrained start free of "
            "oscillations), none, auto (ppp on Q4 cells; none on Q8 and Q9, the inf-sup stable "
@@ -176,7 +184,8 @@ SPEC = [
            (CONSOLIDATION,), choices=("auto", "rowsum", "hrz", "blended")),
     Option("kinematics", "str", "auto", "where shape functions are evaluated: small (at the "
            "points' initial positions: small strains, as the constant volumes and porosity "
-           "assume), large (at their current positions: moving-point MPM; dynamic: the body "
+           "assume), large (at their current positions: moving-point MPM; the implicit scheme: "
+           "the large-strain column, updated Lagrangian; dynamic: the body "
            "flows across a grid larger than itself under gravity, updated Lagrangian, "
            "Hencky's elasticity), auto (small)",
            MOVING, choices=("auto", "small", "large")),

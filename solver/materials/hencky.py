@@ -69,8 +69,11 @@ class Hencky:
     state: ``b_e`` (np, 2, 2) and ``b_zz`` (np,), the material's own history, and the
     volume ratio J (np,)."""
 
-    def __init__(self, material):
+    def __init__(self, material, cauchy: bool = False):
         self.material = material
+        # The stress measure linear in the logarithmic strain: Kirchhoff's (Hencky), or
+        # with ``cauchy`` Cauchy's itself (the law of a constant m_vl).
+        self.cauchy = cauchy
         self.stiffness = isotropic(material.E, material.nu)[:3, :3]
         self.compliance = np.linalg.inv(self.stiffness)
 
@@ -107,4 +110,4 @@ class Hencky:
         sigma[:, 1] = a * s * s + d * c * c
         sigma[:, 3] = (a - d) * s * c
         sigma[:, 2] = tau[:, 2]
-        return sigma / J[:, None], new
+        return (sigma if self.cauchy else sigma / J[:, None]), new

@@ -36,7 +36,8 @@ def interpolation(grid, x, blended: bool = False, corner: bool = False) -> Inter
     N, dN = shapes.evaluate(grid.element, xi, eta)
     if blended or corner:
         N, dN = shapes.blended(grid.element, N, dN, xi, eta, 0.0 if corner else shapes.BLEND)
-    dNdx = dN * np.array([2.0 / grid.h[0], 2.0 / grid.h[1]])
+    dNdx = dN * np.stack([np.full(len(cy), 2.0 / grid.h[0]),
+                          2.0 / grid.cell_heights(cy)], axis=-1)[:, None, :]
     i, j = grid.cell_nodes(cx, cy)
     nodes = grid.local_node(i, j)
     return Interpolation(N, dNdx, nodes, grid.local_dofs(i, j), (cx, cy))

@@ -62,6 +62,9 @@ class Grid:
         self.cells = tuple(int(c) for c in cells)
         self.size = tuple(float(s) for s in size)
         self.h = (self.size[0] / self.cells[0], self.size[1] / self.cells[1])
+        # The cells' edges in y where the rows of cells differ in height (a body-fitted
+        # column, solver.consolidation.implicit.largestrain); None: uniform.
+        self.edges_y = None
         self.nodes = (self.order * self.cells[0] + 1, self.order * self.cells[1] + 1)
         self.offsets = shapes.OFFSETS[element]
         procs, ranges = partition(self.cells, self.order, comm.getSize())
@@ -112,10 +115,21 @@ class Grid:
         """Cell indices and natural coordinates of points x (n, 2) in m."""
         hx, hy = self.h
         cx = np.clip(np.floor(x[:, 0] / hx).astype(np.int64), 0, self.cells[0] - 1)
-        cy = np.clip(np.floor(x[:, 1] / hy).astype(np.int64), 0, self.cells[1] - 1)
         xi = 2 * (x[:, 0] - cx * hx) / hx - 1
-        eta = 2 * (x[:, 1] - cy * hy) / hy - 1
+        if self.edges_y is None:
+            cy = np.clip(np.floor(x[:, 1] / hy).astype(np.int64), 0, self.cells[1] - 1)
+            eta = 2 * (x[:, 1] - cy * hy) / hy - 1
+        else:
+            cy = np.clip(np.searchsorted(self.edges_y, x[:, 1], side="right") - 1, 0,
+                         self.cells[1] - 1)
+            eta = 2 * (x[:, 1] - self.edges_y[cy]) / self.cell_heights(cy) - 1
         return cx, cy, xi, eta
+
+    def cell_heights(self, cy) -> np.ndarray:
+        """The heights (m) of the cells of rows cy."""
+        if self.edges_y is None:
+            return np.full(np.shape(cy), self.h[1])
+        return np.diff(self.edges_y)[np.asarray(cy)]
 
     def cell_nodes(self, cx, cy):
         """Lattice indices (i, j) of the nodes of cells (cx, cy): two arrays (n, nen)."""

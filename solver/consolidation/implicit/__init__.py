@@ -5,6 +5,8 @@ knows nothing of the run around it (the plan, the reporting).
   projection, the held DOFs;
 - ``quasistatic``: the undrained start, TR-BDF2 on graded steps, MUMPS LU, the points' fields;
 - ``yielding``: soil that yields: each stage's Newton on SNES with the materials' stresses;
+- ``largestrain``: the large-strain column's engine: updated Lagrangian, the grid reset to
+  the body at each step, backward Euler, the permeability laws;
 - ``choice``: ``-mpm_scheme auto`` (which scheme, and why) and the options of each scheme.
 
 May import: eigen, stepping, modal, run, io, references, materials, model, common.

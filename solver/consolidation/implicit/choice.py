@@ -82,7 +82,10 @@ def check(req: Request) -> None:
         # The step's critical time step is -mpm_E's; Cam Clay's stiffness grows with p'.
         raise InputError("-mpm_material mcc: the explicit step's time step follows -mpm_E, "
                          "which Cam Clay's stiffness outgrows (use -mpm_scheme implicit)")
-    clash = [n for n in other if n in req.given]
+    # The implicit scheme reads -mpm_kinematics too: small is its own, large the large-strain
+    # column (solver.consolidation.largestrain).
+    clash = [n for n in other if n in req.given
+             and not (n == "kinematics" and req.scheme == "implicit")]
     if clash:
         raise InputError(f"-mpm_{clash[0]}: an option of the "
                          f"{'explicit' if req.scheme == 'implicit' else 'implicit'} scheme, "
