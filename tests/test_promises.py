@@ -245,7 +245,7 @@ def test_fluid_per_layer_is_one_line(cli, tmp_path, name):
         f"solver: error: -mpm_{name} 1000,1100: one value: the pore water is one fluid, the "
         "same in every layer (per layer: -mpm_E, -mpm_nu, -mpm_rho_s, -mpm_porosity, "
         "-mpm_k, -mpm_K0, -mpm_cohesion, -mpm_friction_angle, -mpm_dilation_angle, "
-        "-mpm_tension_cutoff)")
+        "-mpm_tension_cutoff, -mpm_reference_strain)")
     assert not (tmp_path / "out").exists()
 
 
