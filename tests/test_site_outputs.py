@@ -83,3 +83,29 @@ def test_psa_damping_and_periods_are_the_users(cli, tmp_path):
     a = motion.acceleration(t)
     for r, T in zip(rows, periods):
         assert float(r[2]) == pytest.approx(newmark_psa(a, 2e-5, T, 0.02), rel=5e-3), T
+
+
+def test_peaks_with_depth(cli, tmp_path):
+    """peaks.csv of the uniform layer: the surface's peak |v| and |u| those of its history
+    (the same samples), the strain in % 100 times the strain, and the shear stress G
+    times it (G = E / 2 (1 + nu) of the scene: 76 MPa)."""
+    import csv
+
+    out = tmp_path / "out"
+    check_ok(cli(["-mpm_figures", "0", "-mpm_progress", "0", "-mpm_t_end", "1.0",
+                  "-mpm_cells", "1,50"], options_file="dynamic-uniform", out_dir=out))
+    with open(out / "peaks.csv") as fh:
+        peaks = list(csv.DictReader(fh))
+    with open(out / "histories.csv") as fh:
+        surface = [r for r in csv.DictReader(fh) if float(r["depth_m"]) == 0.0]
+    top = peaks[0]
+    assert float(top["peak_v_m_s"]) == pytest.approx(
+        max(abs(float(r["v_x"])) for r in surface), rel=1e-6)
+    assert float(top["peak_u_rel_m"]) == pytest.approx(
+        max(abs(float(r["u_x"])) for r in surface), rel=1e-6)
+    G = 197.6e6 / 2.6
+    for row in peaks[:-1]:
+        strain = float(row["peak_strain"])
+        assert float(row["peak_shear_strain_pct"]) == pytest.approx(100 * strain, rel=1e-6)
+        assert float(row["peak_shear_stress_pa"]) == pytest.approx(G * strain, rel=1e-6)
+    assert float(peaks[-1]["peak_u_rel_m"]) == 0.0          # the base, relative to itself

@@ -56,6 +56,7 @@ class Recorder:
         n = len(self.heights)
         self.t, self.samples = [], []
         self.peak_a, self.peak_p = np.zeros(n), np.zeros(n)
+        self.peak_v, self.peak_u = np.zeros(n), np.zeros(n)
         self.peak_strain = np.zeros(max(n - 1, 0))
 
     def sample(self, t: float, means: np.ndarray) -> None:
@@ -63,7 +64,9 @@ class Recorder:
         self.t.append(float(t))
         self.samples.append(means[self.rows].copy())
         np.maximum(self.peak_a, np.abs(means[:, 3 * self.comp]), out=self.peak_a)
+        np.maximum(self.peak_v, np.abs(means[:, 3 * self.comp + 1]), out=self.peak_v)
         u = means[:, 3 * self.comp + 2]
+        np.maximum(self.peak_u, np.abs(u), out=self.peak_u)
         np.maximum(self.peak_strain, np.abs(np.diff(u) / np.diff(self.heights)),
                    out=self.peak_strain)
         p = np.nan_to_num(means[:, 6])
@@ -75,13 +78,16 @@ class Recorder:
 
     def to_dict(self) -> dict:
         return {"t": self.t, "samples": [s.tolist() for s in self.samples],
-                "peak_a": self.peak_a, "peak_p": self.peak_p, "peak_strain": self.peak_strain}
+                "peak_a": self.peak_a, "peak_p": self.peak_p, "peak_strain": self.peak_strain,
+                "peak_v": self.peak_v, "peak_u": self.peak_u}
 
     def restore(self, d: dict) -> None:
         self.t = list(d["t"])
         self.samples = [np.array(s, dtype=float) for s in d["samples"]]
-        for name in ("peak_a", "peak_p", "peak_strain"):
-            setattr(self, name, np.array(d[name], dtype=float))
+        for name in ("peak_a", "peak_p", "peak_strain", "peak_v", "peak_u"):
+            # A checkpoint of an earlier version has no peak_v, peak_u: from the restart on.
+            setattr(self, name, np.array(d.get(name, np.zeros(len(self.heights))),
+                                         dtype=float))
 
 
 class StepSpectra:
@@ -163,15 +169,21 @@ def write_histories(path, rec: Recorder, water: bool) -> None:
     output.write_text(path, "\n".join(lines) + "\n")
 
 
-def write_peaks(path, rec: Recorder, H: float, water: bool) -> None:
+def write_peaks(path, rec: Recorder, H: float, water: bool, modulus=None) -> None:
     """peaks.csv: the peaks over time with depth, one row per row of nodes or points from
-    the surface down: |a| in the shaking direction, the strain of the interval below the
-    row (none at the base) and, with water, the excess pore pressure."""
-    head = "depth_m,peak_a_m_s2,peak_strain" + (",peak_p_pa" if water else "")
+    the surface down: |a|, |v| and |u| (relative to the base) in the shaking direction,
+    the strain of the interval below the row (none at the base), in % too, the stress it
+    carries there (``modulus`` (Pa) of each interval times the strain: the soil is
+    linear) and, with water, the excess pore pressure."""
+    kind = "shear" if rec.comp == 0 else "axial"
+    head = (f"depth_m,peak_a_m_s2,peak_v_m_s,peak_u_rel_m,peak_strain,peak_{kind}_strain_pct,"
+            f"peak_{kind}_stress_pa" + (",peak_p_pa" if water else ""))
     lines = [head]
     for k in range(len(rec.heights) - 1, -1, -1):
         s = rec.peak_strain[k - 1] if k > 0 else math.nan
-        row = f"{H - rec.heights[k]:.6g},{rec.peak_a[k]:.6e},{s:.6e}"
+        tau = s * modulus[k - 1] if k > 0 and modulus is not None else math.nan
+        row = (f"{H - rec.heights[k]:.6g},{rec.peak_a[k]:.6e},{rec.peak_v[k]:.6e},"
+               f"{rec.peak_u[k]:.6e},{s:.6e},{100 * s:.6e},{tau:.6e}")
         lines.append(row + (f",{rec.peak_p[k]:.6e}" if water else ""))
     output.write_text(path, "\n".join(lines) + "\n")
 

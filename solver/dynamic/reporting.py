@@ -172,7 +172,10 @@ def finish(plan, model, rec, series, record, comm) -> None:
         files["histories"] = os.path.join(folder, "histories.csv")
         histories.write_histories(files["histories"], rec, model.water)
         files["peaks"] = os.path.join(folder, "peaks.csv")
-        histories.write_peaks(files["peaks"], rec, plan.body.height, model.water)
+        mid = 0.5 * (rec.heights[1:] + rec.heights[:-1])
+        modulus = plan.ground.at("shear_modulus" if rec.comp == 0 else
+                                 "constrained_modulus", mid)
+        histories.write_peaks(files["peaks"], rec, plan.body.height, model.water, modulus)
         if spec is not None:
             files["spectra"] = os.path.join(folder, "spectra.csv")
             histories.write_spectra(files["spectra"], spec)
