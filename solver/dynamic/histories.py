@@ -239,9 +239,12 @@ def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:
 
 def write_spectra(path, spec: dict) -> None:
     """spectra.csv (long format): ``fourier`` rows (x: f in Hz; input and surface Fourier
-    amplitudes in m/s; the transfer function raw and smoothed), then ``psa`` rows (x: the
-    period in s; input and surface PSA in m/s2 at -mpm_psa_damping; their ratio)."""
-    lines = ["kind,x,input,surface,transfer,transfer_smoothed"]
+    amplitudes in m/s; their ratio, the transfer function, raw and smoothed), then ``psa``
+    rows (x: the period in s; input and surface PSA in m/s2 at -mpm_psa_damping; their
+    ratio)."""
+    # The ratio's column is named for what it holds in both kinds of rows: the transfer
+    # function in the fourier rows, the PSA ratio in the psa rows.
+    lines = ["kind,x,input,surface,surface_over_input,surface_over_input_smoothed"]
     for row in zip(spec["f"], spec["input"], spec["surface"], spec["transfer"],
                    spec["smoothed"]):
         lines.append("fourier," + ",".join(f"{v:.6e}" for v in row))
