@@ -28,7 +28,7 @@ from ..model.scene import Body, Loading
 from ..model.soil import Soil
 from ..references import analytic
 from ..run.loop import Cadence, Saving, drive
-from ..run.record import Record, guarded
+from ..run.record import Record, begun, guarded
 from .implicit.largestrain import LargeStrain, parse_k_law
 from .implicit.operators import projects
 from .implicit.quasistatic import step_ends
@@ -106,10 +106,7 @@ def run(plan: ColumnPlan, comm) -> int:
 
 
 def _run(plan, comm, record) -> None:
-    ckpt, run_id = checkpoint.take_up(plan.restart, plan.overwrite, plan.signature,
-                                      plan.outputs, comm)
-    record.begin(plan.outputs, run_id, plan.provenance)
-    plan.run["id"] = run_id
+    ckpt, run_id = begun(record, plan, comm)
     model = Column(plan, comm, run_id, ckpt)
     b = plan.body
     record.results = {"kinematics": "large", "scheme": "implicit", "k_law": plan.k_law[0],

@@ -36,7 +36,7 @@ from ..model import lattice
 from ..model.soil import Soil, constrained_modulus
 from ..references.experiments import COLLAPSES
 from ..run.loop import Cadence, Saving, drive
-from ..run.record import Record, guarded
+from ..run.record import Record, begun, guarded
 from ..stepping.flow import Flow
 from . import runout
 
@@ -178,10 +178,7 @@ def run(plan: FlowPlan, comm) -> int:
 
 
 def _run(plan, comm, record) -> None:
-    ckpt, run_id = checkpoint.take_up(plan.restart, plan.overwrite, plan.signature,
-                                      plan.outputs, comm)
-    record.begin(plan.outputs, run_id, plan.provenance)
-    plan.run["id"] = run_id
+    ckpt, run_id = begun(record, plan, comm)
     model = Flowing(plan, comm, run_id, ckpt)
     record.results = runout.keys(plan, model)
     runout.print_plan(plan, model, comm)

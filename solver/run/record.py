@@ -32,7 +32,7 @@ from petsc4py import PETSc
 from ..common import clock, signals
 from ..common.errors import (InputError, InternalError, Interrupted, NumericalError,
                              agree_code, describe, entry)
-from ..io import output, provenance
+from ..io import checkpoint, output, provenance
 
 #: The middle phase of each analysis: the steps, or the eigen analysis's solves.
 MIDDLE = {"eigen": "solving"}
@@ -150,6 +150,18 @@ class Record:
         if wrote:
             said.append(wrote)
         return f"; {', '.join(said)}" if said else ""
+
+
+def begun(record: Record, plan, comm) -> tuple:
+    """(the checkpoint or None, the run id) of a plan that holds its ``restart``,
+    ``overwrite``, ``signature``, ``outputs``, ``provenance`` and ``run``: the restart's
+    checkpoint taken up (the output folder checked), ``record`` begun, the id in the
+    plan's run."""
+    ckpt, run_id = checkpoint.take_up(plan.restart, plan.overwrite, plan.signature,
+                                      plan.outputs, comm)
+    record.begin(plan.outputs, run_id, plan.provenance)
+    plan.run["id"] = run_id
+    return ckpt, run_id
 
 
 def guarded(record: Record, work):
