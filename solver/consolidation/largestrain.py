@@ -196,7 +196,7 @@ class Column:
         e = self.engine
         z = np.zeros(len(e.x))
         self.series.write(k, self.time(k), e.x, {
-            "displacement": np.column_stack([e.x[:, 0] * 0, e.x[:, 1] - self.y0, z]),
+            "displacement": np.column_stack([z, e.x[:, 1] - self.y0, z]),
             "pore_pressure": e.p, "effective_stress_yy": e.sigma[:, 1],
             "effective_stress_xx": e.sigma[:, 0], "volume_ratio": e.J,
             "void_ratio": e.void_ratio()})

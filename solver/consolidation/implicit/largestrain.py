@@ -36,7 +36,6 @@ Serial (one rank), Q4 cells, an elastic soil without gravity: what the column ne
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
@@ -49,9 +48,6 @@ from ...model.grid import Grid
 from ...model.scene import top_forces
 from ...model.soil import Soil
 from .operators import Operators
-
-K_LAWS = ("constant", "power", "kozeny-carman")
-
 
 def parse_k_law(text: str) -> tuple:
     """(kind, A) of ``-mpm_k_law``: constant, power:A, kozeny-carman."""
@@ -149,7 +145,7 @@ class LargeStrain:
         nn = grid.nodes[0] * grid.nodes[1]
         rhs = np.zeros((nn, 3))
         # The load on the top row (downwards), less the effective stress's nodal forces.
-        rhs[nn - grid.nodes[0]:, 1] -= top_forces(grid, dataclass_load(self.loading, q))
+        rhs[nn - grid.nodes[0]:, 1] -= top_forces(grid, _whole_top(self.loading, q))
         s = self.sigma[:, [0, 1, 3]]
         f_int = np.einsum("pia,pi->pa", ops.B, s) * V[:, None]
         np.add.at(rhs.ravel(), ops.dofs[:, :ops.B.shape[2]], -f_int)
@@ -191,13 +187,6 @@ class LargeStrain:
         self.height = float(self.edges[-1])
 
 
-def dataclass_load(loading, q: float):
+def _whole_top(loading, q: float):
     """``loading`` with the load q (Pa), whole top."""
     return dataclasses.replace(loading, load=q, extent=())
-
-
-def schedule(t_end: float, first: float, per_decade: int) -> np.ndarray:
-    """Step ends (s): log-spaced, ``per_decade`` a decade, from ``first`` to ``t_end``."""
-    n = max(2, int(math.ceil(per_decade * math.log10(t_end / first))) + 1)
-    return np.logspace(math.log10(first), math.log10(t_end), n)
-
