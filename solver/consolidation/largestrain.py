@@ -128,28 +128,6 @@ def _run(plan, comm, record) -> None:
     report(plan, model, record, comm)
 
 
-class Points:
-    """The column's points as a checkpoint gathers them (one rank)."""
-
-    def __init__(self, engine):
-        self.engine = engine
-
-    def arrays(self) -> dict:
-        e = self.engine
-        return {"x": e.x, "V0": e.V0, "sigma": e.sigma, "p": e.p, **e.state}
-
-    @property
-    def layout(self) -> dict:
-        return {k: int(np.prod(np.shape(v)[1:])) for k, v in self.arrays().items()}
-
-    @property
-    def n_local(self) -> int:
-        return len(self.engine.x)
-
-    def get(self, name):
-        return np.asarray(self.arrays()[name], dtype=float).reshape(self.n_local, -1)
-
-
 class Column:
     """The column as the loop drives it: step 1 the undrained start at t = 0+, step k the
     step to ``plan.ends[k - 2]``; the samples and fields are of the step's end."""
@@ -165,7 +143,9 @@ class Column:
         self.report_steps = [int(np.argmin(np.abs(self.times - t))) + 1
                              for t in plan.reports.values()]
         self.y0 = self.engine.x[:, 1].copy()
-        self.points = Points(self.engine)
+        e = self.engine
+        self.points = checkpoint.ArrayPoints(
+            lambda: {"x": e.x, "V0": e.V0, "sigma": e.sigma, "p": e.p, **e.state})
         self.rows, self.profiles = [], []
         self.series = output.XdmfSeries(os.path.join(plan.outputs.folder, "points.xdmf"),
                                         run_id=run_id)
@@ -211,10 +191,7 @@ class Column:
         return f"t = {self.time(k):.4g} s, settlement {self.engine.settlement:.5g} m"
 
     def _restore(self, ckpt) -> None:
-        e, cols, start = self.engine, {}, 0
-        for name, width in ckpt.layout.items():
-            cols[name] = ckpt.fields[:, start:start + width]
-            start += width
+        e, cols = self.engine, ckpt.columns()
         for name in ("x", "V0", "sigma", "p"):
             setattr(e, name, cols[name].reshape(np.shape(getattr(e, name))).copy())
         e.state = {k: cols[k].reshape(v.shape).astype(v.dtype) for k, v in e.state.items()}
@@ -224,7 +201,7 @@ class Column:
         self.y0 = np.array(s["y0"])
         self.rows = [tuple(r) for r in s["rows"]]
         self.profiles = [(t, np.array(p)) for t, p in s["profiles"]]
-        self.series.entries = [list(x) for x in s["series"]]
+        self.series.resume(s["series"], ckpt.run_id)
         self.first = int(s["step"]) + 1
 
 
@@ -235,21 +212,23 @@ def report(plan, model, record, comm) -> None:
     t = np.array([r[0] for r in model.rows])
     s = np.array([r[1] for r in model.rows])
     small = H * q / E_c * analytic.column_degree(plan.c_v * t / H ** 2, b.drained)
-    ref = None
+    # Xie and Leo's settlement at every sample and pressures (/ q) at the report times.
+    ref = ref_p = None
     if plan.xie_leo:
         args = (H, q, 1 / E_c, soil.k, soil.unit_weight_water, b.drained)
-        ref = np.array([analytic.large_strain_column(0.0, ti, *args)[1] for ti in t])
+        ref = analytic.large_strain_column(0.0, t, *args)[1]
+        ref_p = [analytic.large_strain_column(model.y0, ti, *args)[0] / q
+                 for ti in plan.reports.values()]
     block = {"settlement_final_m": float(s[-1]), "small_strain_final_m": float(small[-1]),
              "t_end_s": float(t[-1]), "reports": []}
-    for (tv, ti), (_, p) in zip(plan.reports.items(), model.profiles):
+    for j, ((tv, ti), (_, p)) in enumerate(zip(plan.reports.items(), model.profiles)):
         k = int(np.argmin(np.abs(t - ti)))
         entry = {"Tv": tv, "t_s": ti, "settlement_m": float(s[k]),
                  "small_strain_m": float(small[k])}
         if ref is not None:
-            u = analytic.large_strain_column(model.y0, ti, *args)[0]
             entry.update(xie_leo_m=float(ref[k]),
                          settlement_error_pct=float(100 * (s[k] / ref[k] - 1)),
-                         pressure_error_pct_of_q=float(100 * np.max(np.abs(p - u)) / q))
+                         pressure_error_pct_of_q=float(100 * np.max(np.abs(p / q - ref_p[j]))))
         block["reports"].append(entry)
     ultimate = H * (1 - np.exp(-q / E_c)) if ref is not None else None
     block.update(_half_time(t, s, ref, ultimate))
@@ -268,10 +247,10 @@ def report(plan, model, record, comm) -> None:
         files["settlement"] = _csv(os.path.join(folder, "settlement.csv"), cols,
                                    np.column_stack(table))
         files["profiles"] = _profiles(os.path.join(folder, "profiles.csv"), plan, model,
-                                      args if ref is not None else None)
+                                      ref_p)
         if plan.outputs.figures:
             from .plots import large_strain
-            files.update(large_strain(plan, model, t, s, small, ref))
+            files.update(large_strain(plan, model, (t, s, small, ref), ref_p))
         if model.series.entries:
             files["fields_xdmf"] = model.series.path
             files["fields_h5"] = [os.path.join(folder, str(e[1]))
@@ -303,14 +282,16 @@ def _csv(path, cols, rows) -> str:
     return path
 
 
-def _profiles(path, plan, model, args) -> str:
+def _profiles(path, plan, model, ref_p) -> str:
+    """profiles.csv: every point's excess pressure / q at each report time, beside Xie and
+    Leo's ``ref_p`` (one array per report time, or None)."""
     cols = ["Tv", "t_s", "y0_m", "p_over_q_compression_positive"]
-    if args is not None:
+    if ref_p is not None:
         cols.append("xie_leo_p_over_q")
     rows = []
     q = plan.loading.load
-    for (tv, ti), (_, p) in zip(plan.reports.items(), model.profiles):
-        extra = [analytic.large_strain_column(model.y0, ti, *args)[0] / q] if args else []
+    for j, ((tv, ti), (_, p)) in enumerate(zip(plan.reports.items(), model.profiles)):
+        extra = [ref_p[j]] if ref_p is not None else []
         rows += [np.column_stack([np.full(len(p), tv), np.full(len(p), ti), model.y0, p / q,
                                   *extra])]
     return _csv(path, cols, np.concatenate(rows) if rows else np.zeros((0, len(cols))))

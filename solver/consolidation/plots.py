@@ -296,10 +296,13 @@ def settlement_time_2d(plt, t, axis, mean, x_axis: float, extent, fe, ends, titl
     return fig
 
 
-def large_strain(plan, model, t, s, small, ref) -> dict:
+def large_strain(plan, model, history, ref_p) -> dict:
     """The large-strain column's figure: the settlement against time (log) beside the small
-    strain's and, where the scene is theirs, Xie and Leo's; and the excess pore pressure
-    against the height before the load at the report times, theirs dashed."""
+    strain's and, where the scene is theirs, Xie and Leo's (``history``: t (s), the
+    column's, the small strain's and theirs or None (m)); and the excess pore pressure
+    against the height before the load at the report times, theirs (``ref_p``, / q, at
+    each report time, or None) dotted."""
+    t, s, small, ref = history
     plt = output.pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
     keep = t > 0
@@ -312,16 +315,13 @@ def large_strain(plan, model, t, s, small, ref) -> dict:
     a.set_ylabel("settlement (m)")
     a.grid(alpha=0.3, which="both")
     a.legend(fontsize=8)
-    q, soil, body = plan.loading.load, plan.soil, plan.body
+    q = plan.loading.load
     colors = tv_colors(plt, len(model.profiles))
     order = np.argsort(model.y0)
-    for (tv, ti), (_, p), c in zip(plan.reports.items(), model.profiles, colors):
+    for j, (tv, (_, p), c) in enumerate(zip(plan.reports, model.profiles, colors)):
         b.plot(p[order] / q, model.y0[order], "-", color=c, label=f"T_v = {tv:.4g}")
-        if ref is not None:
-            u = analytic.large_strain_column(model.y0[order], ti, body.size[1], q,
-                                             1 / soil.constrained_modulus, soil.k,
-                                             soil.unit_weight_water, body.drained)[0]
-            b.plot(u / q, model.y0[order], ":", color="k", lw=1.2)
+        if ref_p is not None:
+            b.plot(ref_p[j][order], model.y0[order], ":", color="k", lw=1.2)
     b.set_xlabel("excess pore pressure / q")
     b.set_ylabel("height before the load (m)")
     b.grid(alpha=0.3)

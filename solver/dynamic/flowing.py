@@ -192,31 +192,6 @@ def _run(plan, comm, record) -> None:
     runout.finish(plan, model, record, comm)
 
 
-class Points:
-    """The points of one rank as a checkpoint gathers them (``layout``, ``n_local``,
-    ``get``): the flow's arrays, by name, each (n_local, width)."""
-
-    def __init__(self, model):
-        self.model = model
-
-    @property
-    def arrays(self) -> dict:
-        f = self.model.flow
-        return {"id": self.model.ids, "x": f.x, "x0": f.x0, "v": f.v, "V0": f.V0, "m": f.m,
-                "sigma": f.sigma, **f.state}
-
-    @property
-    def layout(self) -> dict:
-        return {k: int(np.prod(np.shape(v)[1:])) for k, v in self.arrays.items()}
-
-    @property
-    def n_local(self) -> int:
-        return len(self.model.ids)
-
-    def get(self, name):
-        return np.asarray(self.arrays[name], dtype=float).reshape(self.n_local, -1)
-
-
 class Flowing:
     """The flowing body as the loop drives it (:class:`solver.run.loop.Model`): step k
     takes the flow from t_(k-1) = (k - 1) dt to k dt, its samples and fields are of its
@@ -238,7 +213,7 @@ class Flowing:
             raise InputError(f"-mpm_t_end {plan.t_end:g}: {self.nsteps:.3g} steps of "
                              f"{self.dt:.3g} s; more than {MAX_STEPS:.0e} is not a run that "
                              "finishes")
-        self.points = Points(self)
+        self.points = checkpoint.ArrayPoints(self._arrays)
         self.mass = self.total(self.flow.m)
         # (t (s), kinetic energy (J per m)) every `every` steps; its peak; the last value.
         self.every = max(1, int(round(1e-3 / self.dt)))
@@ -247,6 +222,12 @@ class Flowing:
         self.first = 1
         if ckpt is not None:
             self._restore(ckpt)
+
+    def _arrays(self) -> dict:
+        """This rank's points, the flow's arrays by name, as a checkpoint stores them."""
+        f = self.flow
+        return {"id": self.ids, "x": f.x, "x0": f.x0, "v": f.v, "V0": f.V0, "m": f.m,
+                "sigma": f.sigma, **f.state}
 
     def total(self, values, op=MPI.SUM) -> float:
         """The sum (or ``op``) over every rank of the local ``values``."""
@@ -302,11 +283,7 @@ class Flowing:
     def _restore(self, ckpt) -> None:
         """Take up the points and records of the checkpoint ``ckpt``: this rank's share of
         the points by their numbers, as the run that wrote it had them."""
-        fields, layout = ckpt.fields, ckpt.layout
-        cols, start = {}, 0
-        for name, width in layout.items():
-            cols[name] = fields[:, start:start + width]
-            start += width
+        cols = ckpt.columns()
         order = np.argsort(cols["id"][:, 0], kind="stable")
         if len(order) != self.n_global:
             raise InputError(f"-mpm_restart {ckpt.path}: {len(order)} points, this scene "

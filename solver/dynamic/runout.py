@@ -62,11 +62,7 @@ class Series:
 
     def resume(self, entries, run_id) -> None:
         if self.writer:
-            folder = self.writer.folder
-            self.writer.entries = [list(e) for e in entries if os.path.isfile(
-                os.path.join(folder, str(e[1]))) and output.series_run_id(
-                os.path.join(folder, str(e[1]))) == run_id]
-            self.writer.rewrite()
+            self.writer.resume(entries, run_id)
 
     def files(self) -> list:
         if not self.entries:

@@ -40,6 +40,33 @@ class Checkpoint:
     state: dict
     run_id: str | None
 
+    def columns(self) -> dict:
+        """{field: its columns of every point (n, width)}, in the layout's order."""
+        out, start = {}, 0
+        for name, width in self.layout.items():
+            out[name] = self.fields[:, start:start + width]
+            start += width
+        return out
+
+
+class ArrayPoints:
+    """Points kept as NumPy arrays (not a DMSwarm) as :func:`write` gathers them:
+    ``arrays()`` gives this rank's {field: (n_local, ...) array}."""
+
+    def __init__(self, arrays):
+        self.arrays = arrays
+
+    @property
+    def layout(self) -> dict:
+        return {k: int(np.prod(np.shape(v)[1:])) for k, v in self.arrays().items()}
+
+    @property
+    def n_local(self) -> int:
+        return len(next(iter(self.arrays().values())))
+
+    def get(self, name):
+        return np.asarray(self.arrays()[name], dtype=float).reshape(self.n_local, -1)
+
 
 def signature(p) -> str:
     """The options that define the physics, as canonical JSON."""
@@ -131,18 +158,13 @@ def read(path, mine: str) -> Checkpoint:
 def scatter(points, grid, ckpt: Checkpoint, position="x"):
     """Give this rank the points of checkpoint ``ckpt`` in the cells it owns, located by the
     field ``position`` (the one the step's shape functions use)."""
-    fields, layout = ckpt.fields, ckpt.layout
-    cols, start = {}, 0
-    for name, bs in layout.items():
-        cols[name] = slice(start, start + bs)
-        start += bs
-    x = fields[:, cols[position]]
-    cx, cy, _, _ = grid.locate(x)
-    mine = fields[grid.cell_owner(cx, cy) == grid.comm.getRank()]
-    points.resize(len(mine))
+    cols = ckpt.columns()
+    cx, cy, _, _ = grid.locate(cols[position])
+    mine = grid.cell_owner(cx, cy) == grid.comm.getRank()
+    points.resize(int(np.count_nonzero(mine)))
     for name in points.layout:
         with points.fields(name) as a:
-            a[...] = mine[:, cols[name]].reshape(a.shape)
+            a[...] = cols[name][mine].reshape(a.shape)
 
 
 def natural(da, vec) -> list:

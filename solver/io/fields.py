@@ -46,22 +46,10 @@ class PointSeries:
         return int(os.path.splitext(name)[0].rsplit("_", 1)[1]), t
 
     def resume(self, entries, run_id):
-        """Continue the series of a checkpoint of run ``run_id``: its times whose files
-        are in this output folder and were written by that run (None, an older checkpoint
-        that does not say: every file there). A restart elsewhere starts a new series, and
-        the index of another run there is replaced by this run's (or removed: no time of
-        it there yet); older checkpoints held VTU names."""
-        if not self.writer:
-            return
-        folder = self.writer.folder
-
-        def own(entry):
-            path = os.path.join(folder, str(entry[1]))
-            return os.path.isfile(path) and (run_id is None
-                                             or output.series_run_id(path) == run_id)
-        self.writer.entries = [list(e) for e in entries
-                               if isinstance(e, (list, tuple)) and len(e) == 4 and own(e)]
-        self.writer.rewrite()
+        """Continue the series of a checkpoint of run ``run_id``
+        (:meth:`output.XdmfSeries.resume`; rank 0's)."""
+        if self.writer:
+            self.writer.resume(entries, run_id)
 
     def write(self, points, step, t):
         """Write the points' fields at step ``step``, time ``t`` (s) (collective). One field

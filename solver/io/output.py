@@ -202,6 +202,19 @@ class XdmfSeries:
         if not (self._appending and self._append(entry)):
             self.rewrite()
 
+    def resume(self, entries, run_id):
+        """Continue the series of a checkpoint of run ``run_id``: its times whose files
+        are in this folder and were written by that run (None, an older checkpoint that
+        does not say: every file there). A restart elsewhere starts a new series, and the
+        index of another run there is replaced by this run's (or removed: no time of it
+        there yet); older checkpoints held VTU names."""
+        def own(entry):
+            path = os.path.join(self.folder, str(entry[1]))
+            return os.path.isfile(path) and (run_id is None or series_run_id(path) == run_id)
+        self.entries = [list(e) for e in entries
+                        if isinstance(e, (list, tuple)) and len(e) == 4 and own(e)]
+        self.rewrite()
+
     def rewrite(self):
         """Write the index whole from the entries (a series taken up again); with none,
         remove an index left at the path (another series')."""
