@@ -67,7 +67,7 @@ def _run(req, comm, record, stack) -> None:
     saving = Saving(os.path.join(plan.outputs.folder, "checkpoint.npz"), plan.signature,
                     plan.run)
     drive(model, cadence, record, saving, first=model.first)
-    reporting.finish(plan, engine, model.rec, model.series, record, comm)
+    reporting.finish(plan, engine, model.rec, model.series, record, comm, model.nsteps)
 
 
 class Shaken:

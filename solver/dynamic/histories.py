@@ -90,6 +90,61 @@ class Recorder:
                                          dtype=float))
 
 
+class Loops:
+    """The stress-strain loops of a hysteretic soil at the recorded depths and the peak
+    stress of every interval between node rows, from its points (``forces``:
+    :class:`solver.stepping.pointforces.PointForces`): at each sample the mean strain and
+    stress of the points of an interval (shear gamma_xy and tau_xy for x shaking, axial
+    eps_yy and sigma_yy for y), recorded for the interval below each recorded row (above
+    the base row), as the strains of the peaks are."""
+
+    def __init__(self, forces, heights, H: float, depths, mpi, direction: str = "x"):
+        self.forces, self.mpi = forces, mpi
+        heights = np.asarray(heights, dtype=float)
+        rows, self.depths = record_rows(heights, H, depths)
+        n = len(heights) - 1
+        self.interval = np.clip(np.searchsorted(heights, forces.x[:, 1]) - 1, 0, n - 1)
+        self.picked = np.maximum(rows - 1, 0)
+        self.count = np.maximum(mpi.allreduce(np.bincount(self.interval, minlength=n)), 1)
+        self.comp = (2, 3) if direction == "x" else (1, 1)   # (strain, stress) columns
+        self.t, self.samples = [], []
+        self.peak_stress = np.zeros(n)
+
+    def sample(self, t: float) -> None:
+        """The loops' points and the peaks at t (s): the points' state (collective)."""
+        f, n = self.forces, len(self.count)
+        sums = np.stack([np.bincount(self.interval, weights=f.strain[:, self.comp[0]],
+                                     minlength=n),
+                         np.bincount(self.interval, weights=f.stress[:, self.comp[1]],
+                                     minlength=n)])
+        means = self.mpi.allreduce(sums) / self.count
+        np.maximum(self.peak_stress, np.abs(means[1]), out=self.peak_stress)
+        self.t.append(float(t))
+        self.samples.append(means[:, self.picked].T.copy())
+
+    def history(self, at: int) -> np.ndarray:
+        """(samples, 2): strain (-) and stress (Pa) of recorded depth ``at``."""
+        return np.array([s[at] for s in self.samples])
+
+    def to_dict(self) -> dict:
+        return {"t": self.t, "samples": [s.tolist() for s in self.samples],
+                "peak_stress": self.peak_stress}
+
+    def restore(self, d: dict) -> None:
+        self.t = list(d["t"])
+        self.samples = [np.array(s, dtype=float) for s in d["samples"]]
+        self.peak_stress = np.array(d["peak_stress"], dtype=float)
+
+
+def write_loops(path, loops: Loops, kind: str) -> None:
+    """loops.csv (long format): t_s, depth_m, the interval's mean strain and stress."""
+    lines = [f"t_s,depth_m,{kind}_strain,{kind}_stress_pa"]
+    for t, s in zip(loops.t, loops.samples):
+        for depth, (g, tau) in zip(loops.depths, s):
+            lines.append(f"{t:.10g},{depth:.6g},{g:.10e},{tau:.10e}")
+    output.write_text(path, "\n".join(lines) + "\n")
+
+
 class StepSpectra:
     """The pseudo-spectral accelerations (PERIODS, 5 %) of the surface and of the input
     from every step, not from the records: at the default -mpm_record_dt (0.005 s) an
@@ -169,19 +224,23 @@ def write_histories(path, rec: Recorder, water: bool) -> None:
     output.write_text(path, "\n".join(lines) + "\n")
 
 
-def write_peaks(path, rec: Recorder, H: float, water: bool, modulus=None) -> None:
+def write_peaks(path, rec: Recorder, H: float, water: bool, modulus=None,
+                stress=None) -> None:
     """peaks.csv: the peaks over time with depth, one row per row of nodes or points from
     the surface down: |a|, |v| and |u| (relative to the base) in the shaking direction,
     the strain of the interval below the row (none at the base), in % too, the stress it
-    carries there (``modulus`` (Pa) of each interval times the strain: the soil is
-    linear) and, with water, the excess pore pressure."""
+    carries there (``stress`` (Pa) of each interval, the points' peak (a hysteretic
+    soil), else ``modulus`` (Pa) of each interval times the strain: the soil is linear)
+    and, with water, the excess pore pressure."""
     kind = "shear" if rec.comp == 0 else "axial"
     head = (f"depth_m,peak_a_m_s2,peak_v_m_s,peak_u_rel_m,peak_strain,peak_{kind}_strain_pct,"
             f"peak_{kind}_stress_pa" + (",peak_p_pa" if water else ""))
     lines = [head]
     for k in range(len(rec.heights) - 1, -1, -1):
         s = rec.peak_strain[k - 1] if k > 0 else math.nan
-        tau = s * modulus[k - 1] if k > 0 and modulus is not None else math.nan
+        tau = math.nan if k == 0 else (stress[k - 1] if stress is not None else
+                                       s * modulus[k - 1] if modulus is not None
+                                       else math.nan)
         row = (f"{H - rec.heights[k]:.6g},{rec.peak_a[k]:.6e},{rec.peak_v[k]:.6e},"
                f"{rec.peak_u[k]:.6e},{s:.6e},{100 * s:.6e},{tau:.6e}")
         lines.append(row + (f",{rec.peak_p[k]:.6e}" if water else ""))

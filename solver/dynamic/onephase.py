@@ -15,6 +15,7 @@ import numpy as np
 
 from ..common import signals
 from ..common.errors import NumericalError
+from ..io import checkpoint
 from ..model import scene
 from ..stepping.onephase import ShakenBody
 from . import histories
@@ -32,7 +33,7 @@ class NodalModel:
         signals.stage("set-up: the body")
         self.plan = plan
         self.body = ShakenBody(comm, plan.body, plan.ground, plan.shaking, plan.sides,
-                               plan.loading)
+                               plan.loading, plan.materials)
         b = self.body
         self.dt, self.every = histories.sample_step(plan.record_dt, b.dt)
         b.start(self.dt)
@@ -43,7 +44,13 @@ class NodalModel:
         self.vec = b.K.createVecRight()
         self.mpi = comm.tompi4py()
         self.a = np.zeros(len(b.m))
-        self.points = b.points
+        # A hysteretic soil's points carry their state (stresses, the elements'): the
+        # checkpoint keeps those; a linear soil's state is the nodes' alone.
+        self.points = b.points if b.hysteretic is None else \
+            checkpoint.ArrayPoints(b.hysteretic.arrays)
+        self.loops = histories.Loops(b.hysteretic, self.heights, plan.body.height,
+                                     plan.depths, self.mpi, plan.shaking.direction) \
+            if b.hysteretic is not None else None
         self._surface(ny, nx)
         self.spectra = histories.StepSpectra(plan.motion, self.dt,
                                              frame=b.shaking.base == "rigid", psa=plan.psa)
@@ -75,6 +82,8 @@ class NodalModel:
     def means(self, t: float) -> np.ndarray:
         """The row means (rows x COLUMNS) at t (s), the step from t just taken."""
         a = self.a
+        if self.loops is not None:        # the points' state is of t: the step's start
+            self.loops.sample(t)
         u, v = self._at_step_start()
         ny = len(self.heights)
         b = self.body
@@ -118,8 +127,9 @@ class NodalModel:
         """u, v of every free DOF (natural numbers, gathered on rank 0) and the state of
         the spectra from the steps."""
         steps = self.spectra.state(self.mpi)           # collective, as the gather
+        loops = {} if self.loops is None else {"loops": self.loops.to_dict()}
         whole = self._gathered(*self.body.state())
-        return {} if whole is None else {"nodal": whole.tolist(), **steps}
+        return {} if whole is None else {"nodal": whole.tolist(), **steps, **loops}
 
     def restore(self, ckpt) -> None:
         """Take up the state of a checkpoint (:class:`solver.io.checkpoint.Checkpoint`)."""
@@ -129,6 +139,9 @@ class NodalModel:
         self.body.u.setArray(whole[at, 1][self.body.kept])
         self.body.v.setArray(whole[at, 2][self.body.kept])
         self.spectra.restore(ckpt.state, ckpt.state["step"])
+        if self.body.hysteretic is not None:
+            self.body.hysteretic.restore(ckpt.columns())
+            self.loops.restore(ckpt.state["loops"])
 
     def fields(self) -> tuple:
         """(node coordinates (N, 2), {name: (N, 3)}) of every node at the time of the step

@@ -18,6 +18,7 @@ from ..common.errors import InputError
 from ..io import checkpoint, output, provenance
 from ..io import records as record_files
 from ..io.restart import given_at_start
+from ..materials import catalog
 from ..model.motion import Motion, parse
 from ..model.scene import Body, Loading
 from ..model.soil import Ground
@@ -58,6 +59,7 @@ class DynamicPlan:
     restart: str
     cadence: tuple          # (output_every, checkpoint_every, checkpoint_seconds, progress)
     psa: tuple = (histories.PERIODS, 0.05)     # the spectra's periods (s) and damping
+    materials: tuple | None = None     # the hyperbolic soil of each layer (None: linear)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,6 +85,8 @@ class Request:
     outputs: output.Outputs
     cadence: tuple             # (output_every, checkpoint_every, checkpoint_seconds, progress)
     psa: tuple                 # the spectra's periods (s) and damping ratio
+    recipe: catalog.Recipe     # -mpm_material and its parameters
+    small_strain_damping: float
     restart: str
     overwrite: bool
     run: dict                  # {"id": None, "options": the options as read}
@@ -111,7 +115,9 @@ class Request:
                    psa=(np.logspace(np.log10(p.psa_periods[0]), np.log10(p.psa_periods[1]),
                                     int(p.psa_periods[2])), p.psa_damping),
                    cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
-                            p.progress), restart=p.restart, overwrite=p.overwrite,
+                            p.progress), recipe=catalog.Recipe.from_options(p),
+                   small_strain_damping=p.small_strain_damping,
+                   restart=p.restart, overwrite=p.overwrite,
                    run={"id": None, "options": checkpoint.recorded(options),
                         "given": sorted(given)},
                    signature=checkpoint.signature(p), provenance=options)
@@ -153,6 +159,21 @@ def validate(req: Request) -> None:
     if req.rayleigh and req.phases == 2:
         raise InputError("-mpm_rayleigh: for one phase (the v-w step's drag damps the "
                          "two-phase waves)")
+    names = set(req.recipe.names)
+    if names - {"elastic", "hyperbolic"} or len(names) > 1:
+        raise InputError(f"-mpm_material {','.join(req.recipe.names)}: the shaken body takes "
+                         "elastic or hyperbolic, one for every layer (-mpm_reference_strain "
+                         "per layer)")
+    hyperbolic = names == {"hyperbolic"}
+    if hyperbolic and req.phases == 2:
+        raise InputError("-mpm_material hyperbolic: one phase (-mpm_phases 1: a total-stress "
+                         "analysis)")
+    if req.small_strain_damping and not hyperbolic:
+        raise InputError("-mpm_small_strain_damping: the hyperbolic soil's (a linear soil's "
+                         "damping is -mpm_rayleigh)")
+    if req.small_strain_damping and req.rayleigh:
+        raise InputError("-mpm_small_strain_damping with -mpm_rayleigh: give one (both are "
+                         "Rayleigh damping)")
     if req.t_end / req.record_dt > 1e6:
         raise InputError(f"-mpm_record_dt {req.record_dt:g}: more than 1e6 samples to "
                          f"-mpm_t_end {req.t_end:g} s")
@@ -199,9 +220,10 @@ def plan_of(req: Request, comm) -> DynamicPlan:
     analytic = layered.rod_frequencies(req.ground.thickness, modulus,
                                        [s.density for s in soils], 3)
     damping = None
-    if req.rayleigh:
-        xi = req.rayleigh[0]
-        f1, f2 = req.rayleigh[1:] if len(req.rayleigh) == 3 else (eig[0], 5 * eig[0])
+    given = req.rayleigh or ((req.small_strain_damping,) if req.small_strain_damping else ())
+    if given:
+        xi = given[0]
+        f1, f2 = given[1:] if len(given) == 3 else (eig[0], 5 * eig[0])
         damping = (xi, f1, f2)
         shaking = dataclasses.replace(shaking, **dict(zip(("a0", "a1"), rayleigh(xi, f1,
                                                                                    f2))))
@@ -211,4 +233,5 @@ def plan_of(req: Request, comm) -> DynamicPlan:
                        eigen_hz=eig, eigen_solver=solver, analytic_hz=analytic,
                        damping=damping, outputs=req.outputs, run=dict(req.run),
                        signature=req.signature, restart=req.restart, cadence=req.cadence,
-                       psa=req.psa)
+                       psa=req.psa, materials=req.recipe.per_layer(soils)
+                       if "hyperbolic" in req.recipe.names else None)

@@ -13,7 +13,7 @@ from petsc4py import PETSc
 from ..io import output
 from ..io.fields import PointSeries
 from ..references import site
-from . import histories, plots
+from . import histories, plots, twin
 
 
 def print_plan(plan, model, nsteps: int, comm) -> None:
@@ -115,11 +115,11 @@ def rings(plan) -> bool:
 def exact_column(plan):
     """The exact one-dimensional reference of the scene (:class:`site.Column`) where it is
     one: one phase, horizontal shaking, no load, no mass-proportional damping (the
-    stiffness-proportional part is the column's viscosity), and a response that dies out
-    (a compliant base or damping); else None."""
+    stiffness-proportional part is the column's viscosity), a linear soil, and a response
+    that dies out (a compliant base or damping); else None."""
     sh = plan.shaking
     if plan.phases != 1 or sh.direction != "x" or plan.loading is not None or sh.a0 > 0 \
-            or plan.motion.form[0] == "none":
+            or plan.motion.form[0] == "none" or plan.materials is not None:
         return None
     if rings(plan):
         return None         # undamped on a rigid base it rings forever: no FFT answer
@@ -130,9 +130,10 @@ def exact_column(plan):
                        rock=rock, viscosity=sh.a1)
 
 
-def finish(plan, model, rec, series, record, comm) -> None:
+def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
     """The outputs after the last step (rank 0 writes), the results into the summary's
-    ``dynamic`` block (``record.results``) and the closing lines."""
+    ``dynamic`` block (``record.results``) and the closing lines; a hysteretic soil's
+    loops and its linear twin of ``nsteps`` steps (:func:`hysteretic`)."""
     folder = plan.outputs.folder
     t = np.array(rec.t)
     block = {"record_depths_m": rec.depths.tolist(), "eigen_hz": plan.eigen_hz.tolist(),
@@ -162,12 +163,14 @@ def finish(plan, model, rec, series, record, comm) -> None:
                                  a0=plan.shaking.a0, a1=plan.shaking.a1)
     if model.water:
         block.update(model.references(rec))
-    warning = strain_warning(rec, plan.body.height)
+    warning = strain_warning(rec, plan.body.height) if plan.materials is None else ""
     if warning:
         block["warnings"] = [warning]
     _print_results(block, comm)
     record.results.update(block)
     files = record.files
+    if model.loops is not None:
+        hysteretic(plan, model, rec, spec, nsteps, record, comm)
     if comm.getRank() == 0:
         files["histories"] = os.path.join(folder, "histories.csv")
         histories.write_histories(files["histories"], rec, model.water)
@@ -175,7 +178,8 @@ def finish(plan, model, rec, series, record, comm) -> None:
         mid = 0.5 * (rec.heights[1:] + rec.heights[:-1])
         modulus = plan.ground.at("shear_modulus" if rec.comp == 0 else
                                  "constrained_modulus", mid)
-        histories.write_peaks(files["peaks"], rec, plan.body.height, model.water, modulus)
+        histories.write_peaks(files["peaks"], rec, plan.body.height, model.water, modulus,
+                              None if model.loops is None else model.loops.peak_stress)
         if spec is not None:
             files["spectra"] = os.path.join(folder, "spectra.csv")
             histories.write_spectra(files["spectra"], spec)
@@ -185,6 +189,35 @@ def finish(plan, model, rec, series, record, comm) -> None:
         if fields:
             files["fields_xdmf"], files["fields_h5"] = fields[0], fields[1:]
     record.finish()
+
+
+def hysteretic(plan, model, rec, spec, nsteps: int, record, comm) -> None:
+    """A hysteretic soil's outputs: the loops at the recorded depths (loops.csv and its
+    figure) and, under a base motion, its linear twin stepped now (:mod:`twin`: the
+    summary's ``linear_twin`` block, a line, twin.csv and its figure)."""
+    folder, files = plan.outputs.folder, record.files
+    kind = "shear" if rec.comp == 0 else "axial"
+    twin_rec = twin_psa = None
+    if plan.motion.form[0] != "none":
+        twin_rec, twin_psa = twin.run(plan, comm, nsteps)
+        b = twin.block(rec, twin_rec, spec, twin_psa)
+        record.results["linear_twin"] = b
+        PETSc.Sys.Print(twin.words(b, kind), comm=comm)
+    if comm.getRank() != 0:
+        return
+    files["loops"] = os.path.join(folder, "loops.csv")
+    histories.write_loops(files["loops"], model.loops, kind)
+    if twin_rec is not None:
+        files["twin"] = os.path.join(folder, "twin.csv")
+        twin.write(files["twin"], rec, twin_rec, spec, twin_psa)
+    if plan.outputs.figures:
+        plt = output.pyplot()
+        files.update(output.save_figures(twin.loops_figure(plt, model.loops, kind), folder,
+                                         "loops", plan.outputs.formats))
+        if twin_rec is not None:
+            files.update(output.save_figures(
+                twin.figure(plt, rec, twin_rec, spec, twin_psa, kind), folder, "twin",
+                plan.outputs.formats))
 
 
 LINEAR_STRAIN = 1e-4     # past it a real soil has lost a tenth of its modulus or more

@@ -45,6 +45,7 @@ class SaturatedColumn:
     """The two-phase body of ``plan`` on ``comm`` (see the module's docstring)."""
 
     water = True
+    loops = None            # a linear soil: no stress-strain loops
 
     def __init__(self, comm, plan):
         signals.stage("set-up: the body")

@@ -249,6 +249,10 @@ SPEC = [
     Option("rayleigh", "floats", (), "Rayleigh damping XI[,F1,F2]: ratio XI at F1 and F2 "
            "(Hz; default f1 and 5 f1 of the Jacobi eigen analysis of the same column); "
            "none when not given", (DYNAMIC,), checks.rayleigh),
+    Option("small_strain_damping", "float", 0.0, "hyperbolic: the damping ratio below the "
+           "hysteresis's reach, Rayleigh at f1 and 5 f1 of the small-strain column (0: the "
+           "hysteresis alone)", (DYNAMIC,),
+           lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
     Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), checks.positive),
     Option("psa_damping", "float", 0.05, "the damping ratio of the pseudo-spectral "
            "accelerations' oscillators (-)", (DYNAMIC,),
@@ -302,10 +306,10 @@ SPEC = [
     Option("reference_strain", "float_or_floats", math.nan, "hyperbolic: the reference shear "
            "strain gamma_r (engineering) of the backbone tau = G gamma / (1 + gamma / "
            "gamma_r); consolidation: per layer", MATERIAL, checks.positive),
-    Option("surfaces", "int", 40, "hyperbolic: the surfaces (elements) of the Iwan model, a "
-           "multiple of 5, log-spaced over 1e-3 .. 1e2 gamma_r (the backbone exact at "
-           "each decade)", MATERIAL,
-           lambda v: None if v >= 5 and v % 5 == 0 else "must be a multiple of 5"),
+    Option("surfaces", "int", 25, "hyperbolic: the surfaces (elements) of the Iwan model, "
+           "at least 6, over 1e-3 .. 1e2 gamma_r (the backbone exact at each decade, dense "
+           "about gamma_r: 25 keep it within 0.5 %)", MATERIAL,
+           lambda v: None if v >= 6 else "must be at least 6"),
     Option("soiltest", "str", "triaxial-drained", "the soil test", (SOILTEST,), choices=(
         "triaxial-drained", "triaxial-undrained", "plane-strain", "simple-shear", "oedometer",
         "simple-shear-cyclic")),
@@ -339,7 +343,7 @@ SPEC = [
 # The options the dynamic analysis reads with -mpm_kinematics large only, and those it does
 # not read with it (the shaken or suddenly loaded body's, and what the flowing body lacks).
 FLOWING_ONLY = ("gravity", "dt_safety", "damping", "flip", "bbar", "grid_size", "shape",
-                "floor_friction", "rest_energy", "experiment", "material", "cohesion",
+                "floor_friction", "rest_energy", "experiment", "cohesion",
                 "friction_angle", "dilation_angle", "tension_cutoff", "bc_left", "bc_right",
                 "bc_bottom", "bc_top")
 NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "base",
@@ -347,4 +351,4 @@ NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "
                "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",
                "jacobi_tol", "jacobi_max_sweeps", "element", "points", "mcc_M", "mcc_lambda",
                "mcc_kappa", "void_ratio", "mcc_ocr", "reference_strain", "surfaces",
-               "psa_damping", "psa_periods")
+               "psa_damping", "psa_periods", "small_strain_damping")

@@ -19,7 +19,7 @@ NAMES = ("elastic", "tresca", "mohr-coulomb", "drucker-prager", "mcc", "hyperbol
 
 def make(name: str, E: float, nu: float, cohesion: float = 0.0, phi: float = 0.0,
          psi: float = math.nan, mcc: dict | None = None, tension: float = math.nan,
-         hyperbolic: tuple = (math.nan, 40)):
+         hyperbolic: tuple = (math.nan, 25)):
     """The material ``name`` (NAMES) of Young's modulus E (Pa) and Poisson's ratio nu, with
     cohesion (Pa), friction and dilation angles phi, psi (degrees; psi NaN: phi), the Cam
     Clay parameters ``mcc`` ({M, lam, kappa, e0, ocr}), a tension cutoff (Pa; NaN: none)
@@ -80,7 +80,7 @@ class Recipe:
     mcc: dict = field(default_factory=dict)
     tension: object = math.nan
     reference_strain: object = math.nan
-    surfaces: int = 40
+    surfaces: int = 25
 
     @classmethod
     def from_options(cls, p) -> "Recipe":

@@ -52,6 +52,7 @@ from ..common.linalg import direct_solver
 from ..materials.history import elasticity_of
 from ..model import scene, shapes
 from ..model.scene import Body, Loading, top_forces
+from .pointforces import PointForces
 
 SAFETY = 0.9
 
@@ -101,12 +102,15 @@ class ShakenBody:
     ``sides``: rollers, periodic (each right-side node tied to the left-side node of its
     row: the body moves as a column of any width) or absorbing (Lysmer dashpots, rho Vp
     normal and rho Vs tangential, for waves leaving a body whose far field is at rest);
-    ``loading`` presses on the top from t = 0. :meth:`run` steps it, or :meth:`start` and
-    :meth:`step` one step at a time.
+    ``loading`` presses on the top from t = 0; ``materials`` (one hyperbolic soil per layer
+    of ``soil``; None: linear) make the internal forces the points' stresses'
+    (:class:`solver.stepping.pointforces.PointForces`) in place of K u, K (the small-strain
+    stiffness) kept for the step and the damping. :meth:`run` steps it, or :meth:`start`
+    and :meth:`step` one step at a time.
     The caller destroys it."""
 
     def __init__(self, comm, body: Body, soil, shaking: Shaking, sides: str = "rollers",
-                 loading: Loading | None = None):
+                 loading: Loading | None = None, materials=None):
         self.shaking = shaking
         periodic = sides == "periodic"
         body = dataclasses.replace(body, bcs=shaking.supports(sides))
@@ -150,6 +154,12 @@ class ShakenBody:
         self.base_share = self.m[self.base_dofs] / m_base if m_base > 0 else None
         self.a0_m_along = shaking.a0 * self.m * self.along
         self.dt = self.dt_stable = self._stable_step()
+        self.hysteretic = None
+        if materials is not None:
+            y = self.points.get("x")[:, 1]
+            layer = soil.layer_of(y) if len(soil.soils) > 1 else np.zeros(len(y), dtype=int)
+            self.hysteretic = PointForces(self.grid, self.points, self.free, self.T,
+                                          materials, layer)
         self.solver = None
         self.u = self.v = None
 
@@ -228,7 +238,10 @@ class ShakenBody:
         ua, va = self.u.getArray(), self.v.getArray()
         # The forces at t move v from t - dt/2 to t + dt/2: the acceleration (v' - v) / dt
         # is that of t.
-        self.K.mult(self.u, self.r)
+        if self.hysteretic is None:
+            self.K.mult(self.u, self.r)
+        else:
+            self.hysteretic.forces(self.u, self.r)
         fa = self.f - self.r.getArray()
         if sh.base == "rigid":
             fa[self.along] -= m[self.along] * acceleration(t)
@@ -293,7 +306,7 @@ class ShakenBody:
         return {"t": t, "surface": surface, "base": at_base, "dt": dt}
 
     def destroy(self):
-        scene.destroy(self.solver, self.u, self.v, getattr(self, "r", None),
+        scene.destroy(self.hysteretic, self.solver, self.u, self.v, getattr(self, "r", None),
                       getattr(self, "Kv", None), self.T, self.K, self.free, self.points,
                       self.grid)
 
