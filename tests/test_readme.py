@@ -109,6 +109,8 @@ def _reference_words(p) -> set:
         # response of the column on rock, unless Rayleigh damping's mass part rules it out.
         if p.phases == 2:
             return {"solver/references/waves.py", "Terzaghi"}
+        if p.material == "hyperbolic":     # no reference of its own: its linear twin beside
+            return {"none", "linear twin"}
         return {"Jacobi", "layered rod"} if p.rayleigh else \
             {"solver/references/site.py", "Jacobi"}
     if p.kinematics == "large" and p.scheme == "implicit":

@@ -9,10 +9,11 @@ across a grid larger than itself (a granular column's collapse).
 - ``onephase``: one phase on the nodes: the shaken body's step, row means, state and fields;
 - ``saturated``: two phases under a sudden load or shaken on a rigid base: the explicit
   v-w step without dampers, with the saturated column's references;
-- ``histories``: what a run records (row means at depths, peaks with depth) and the
-  histories, peaks and spectra it writes;
+- ``histories``: what a run records (row means at depths, peaks with depth, a hysteretic
+  soil's loops) and the histories, peaks and spectra (every recorded depth's) it writes;
 - ``reporting``: the lines printed, the exact response of a one-dimensional scene, the
   XDMF series, the summary's ``dynamic`` block;
+- ``twin``: a hysteretic run's linear twin, stepped after it and reported beside;
 - ``flowing``: the flowing body: its options planned, the model the loop drives;
 - ``runout``: its reporting: the deposit's free surface, toe, energy, the experiment
   beside it, the summary's block;

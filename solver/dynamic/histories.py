@@ -95,8 +95,10 @@ class Loops:
     stress of every interval between node rows, from its points (``forces``:
     :class:`solver.stepping.pointforces.PointForces`): at each sample the mean strain and
     stress of the points of an interval (shear gamma_xy and tau_xy for x shaking, axial
-    eps_yy and sigma_yy for y), recorded for the interval below each recorded row (above
-    the base row), as the strains of the peaks are."""
+    eps_yy and sigma_yy for y), recorded for the interval above each recorded row (ending
+    at its depth: at an interface, the upper layer's base; the surface: the one below it).
+    Strains and stresses are the points' own: the peak stress of an interval sits beside
+    the strain of peaks.csv, of the row above it."""
 
     def __init__(self, forces, heights, H: float, depths, mpi, direction: str = "x"):
         self.forces, self.mpi = forces, mpi
@@ -104,7 +106,7 @@ class Loops:
         rows, self.depths = record_rows(heights, H, depths)
         n = len(heights) - 1
         self.interval = np.clip(np.searchsorted(heights, forces.x[:, 1]) - 1, 0, n - 1)
-        self.picked = np.maximum(rows - 1, 0)
+        self.picked = np.minimum(rows, n - 1)
         self.count = np.maximum(mpi.allreduce(np.bincount(self.interval, minlength=n)), 1)
         self.comp = (2, 3) if direction == "x" else (1, 1)   # (strain, stress) columns
         self.t, self.samples = [], []
@@ -146,16 +148,16 @@ def write_loops(path, loops: Loops, kind: str) -> None:
 
 
 class StepSpectra:
-    """The pseudo-spectral accelerations (PERIODS, 5 %) of the surface and of the input
-    from every step, not from the records: at the default -mpm_record_dt (0.005 s) an
-    oscillator of 0.01 s sees two samples a period, and what the surface does between the
-    samples is lost (the samples' PSA was 0.92 % off on the uniform layer under a Ricker,
-    4.4 % on the 30 m deposit's record; docs/method.md). The engine gives each step's
-    surface acceleration in the shaking direction, this rank's share of the row mean
-    (:meth:`keep`); the oscillators (:class:`spectra.Oscillators`) take the steps up in
-    pieces of at most CHUNK steps, at a checkpoint and at the end (collective), so that
-    memory stays CHUNK floats and a checkpoint stores their state (five numbers a period),
-    not the history.
+    """The pseudo-spectral accelerations (PERIODS, 5 %) of the recorded depths (the surface
+    first) and of the input from every step, not from the records: at the default
+    -mpm_record_dt (0.005 s) an oscillator of 0.01 s sees two samples a period, and what
+    the surface does between the samples is lost (the samples' PSA was 0.92 % off on the
+    uniform layer under a Ricker, 4.4 % on the 30 m deposit's record; docs/method.md). The
+    engine gives each step's acceleration in the shaking direction at ``depths`` rows, this
+    rank's share of each row mean (:meth:`keep`); the oscillators
+    (:class:`spectra.Oscillators`) take the steps up in pieces of at most CHUNK steps, at a
+    checkpoint and at the end (collective), so that memory stays CHUNK floats a depth and a
+    checkpoint stores their state (five numbers a period), not the history.
 
     The value of the step from t (s) is of t + ``lag`` (the engine's samples'); the
     motion's acceleration at t is added to it where the engine steps in the frame of the
@@ -164,17 +166,22 @@ class StepSpectra:
     CHUNK = 1 << 16
 
     def __init__(self, motion, dt: float, lag: float = 0.0, frame: bool = False,
-                 psa=(PERIODS, 0.05)):
+                 psa=(PERIODS, 0.05), depths: int = 1):
         self.motion, self.dt, self.lag, self.frame = motion, dt, lag, frame
-        self.values = np.zeros(self.CHUNK)
+        self.values = np.zeros((self.CHUNK, depths))
         self.fed = self.done = 0          # steps the oscillators have, steps kept
-        self.surface = spectra.Oscillators(psa[0], dt, psa[1])
+        self.rows = [spectra.Oscillators(psa[0], dt, psa[1]) for _ in range(depths)]
         self.input = spectra.Oscillators(psa[0], dt, psa[1])
         self.lost = False                 # restarted from a checkpoint without them
 
-    def keep(self, t: float, value: float, mpi) -> None:
-        """The step from t (s): ``value`` (m/s2) this rank's share of its surface mean (the
-        ranks' shares sum to it). Collective every CHUNK steps."""
+    @property
+    def surface(self):
+        return self.rows[0]
+
+    def keep(self, t: float, value, mpi) -> None:
+        """The step from t (s): ``value`` (m/s2) this rank's share of each recorded row's
+        mean, the surface first (the ranks' shares sum to it). Collective every CHUNK
+        steps."""
         j = int(round(t / self.dt))
         if j - self.fed >= self.CHUNK:
             self._take_up(mpi)
@@ -185,8 +192,9 @@ class StepSpectra:
         new = mpi.allreduce(self.values[:self.done - self.fed])
         t = np.arange(self.fed, self.done) * self.dt
         if self.frame:
-            new = new + self.motion.acceleration(t)
-        self.surface.feed(new)
+            new = new + self.motion.acceleration(t)[:, None]
+        for i, row in enumerate(self.rows):
+            row.feed(new[:, i])
         self.input.feed(self.motion.acceleration(t + self.lag))
         self.fed = self.done
 
@@ -196,19 +204,28 @@ class StepSpectra:
         self._take_up(mpi)
         return None if self.lost else (self.input.psa, self.surface.psa)
 
+    def at_depths(self, mpi):
+        """The PSA (m/s2) of every recorded row (rows, periods), the surface first
+        (collective), or None (as :meth:`psa`)."""
+        self._take_up(mpi)
+        return None if self.lost else np.array([row.psa for row in self.rows])
+
     def state(self, mpi) -> dict:
         """What a checkpoint keeps of them (collective)."""
         self._take_up(mpi)
         return {"psa": {"steps": self.fed, "surface": self.surface.state(),
+                        "depths": [row.state() for row in self.rows[1:]],
                         "input": self.input.state(), "lost": self.lost}}
 
     def restore(self, state: dict, steps: int) -> None:
         """Go on after ``steps`` steps from a checkpoint's ``state``."""
         self.fed = self.done = steps
         d = state.get("psa")
-        self.lost = d is None or d["lost"] or d["steps"] != steps
+        self.lost = d is None or d["lost"] or d["steps"] != steps or \
+            len(d.get("depths", ())) != len(self.rows) - 1
         if not self.lost:
-            self.surface.restore(d["surface"])
+            for row, kept in zip(self.rows, [d["surface"]] + d["depths"]):
+                row.restore(kept)
             self.input.restore(d["input"])
 
 
@@ -272,6 +289,47 @@ def spectral(rec: Recorder, a_in: np.ndarray, psa=None, oscillators=(PERIODS, 0.
             "peaks": resonances(f[strong], ratio[strong], smooth[strong]),
             "periods": np.asarray(periods), "psa_damping": damping,
             "psa_input": psa[0], "psa_surface": psa[1]}
+
+
+def at_depths(rec: Recorder, a_in: np.ndarray, spec: dict, psa=None) -> dict:
+    """The spectra of every recorded depth (the surface first) beside the input's: their
+    Fourier amplitudes (m/s, from the samples, at the frequencies of ``spec``, the
+    surface's :func:`spectral`) and PSA (m/s2, at its periods and damping): ``psa`` (rows,
+    periods) from every step where given (:meth:`StepSpectra.at_depths`), else from the
+    samples."""
+    dt = rec.t[1] - rec.t[0]
+    name = COLUMNS[3 * rec.comp]
+    n = 1 << max(1, math.ceil(math.log2(4 * len(rec.t))))
+    f_all = np.fft.rfftfreq(n, dt)
+    keep = np.isin(f_all, spec["f"])
+    fourier, own = [], []
+    for i in range(len(rec.depths)):
+        a = rec.history(name, i)
+        fourier.append(spectra.fourier_amplitude(a, dt, n)[1][keep])
+        if psa is None:
+            own.append(spectra.pseudo_acceleration(a, dt, spec["periods"],
+                                                   spec["psa_damping"]))
+    return {"depths": rec.depths, "f": spec["f"], "input": spec["input"],
+            "fourier": np.array(fourier), "periods": spec["periods"],
+            "psa_input": spec["psa_input"],
+            "psa": np.asarray(psa) if psa is not None else np.array(own),
+            "from_steps": psa is not None}
+
+
+def write_at_depths(path, d: dict) -> None:
+    """spectra_depths.csv (long format): ``fourier`` rows (x: f in Hz; the depth's Fourier
+    amplitude in m/s and its ratio to the input's), then ``psa`` rows (x: the period in s;
+    the depth's PSA in m/s2 and its ratio to the input's), each for every recorded depth
+    (m below the surface)."""
+    lines = ["kind,depth_m,x,value,over_input"]
+    for i, depth in enumerate(d["depths"]):
+        for f, a, ref in zip(d["f"], d["fourier"][i], d["input"]):
+            lines.append(f"fourier,{depth:.6g},{f:.6e},{a:.6e},{a / ref:.6e}")
+    for i, depth in enumerate(d["depths"]):
+        for T, a, ref in zip(d["periods"], d["psa"][i], d["psa_input"]):
+            lines.append(f"psa,{depth:.6g},{T:.6e},{a:.6e},"
+                         f"{a / ref if ref else math.nan:.6e}")
+    output.write_text(path, "\n".join(lines) + "\n")
 
 
 def resonances(f, raw, smooth, count: int = 3) -> np.ndarray:

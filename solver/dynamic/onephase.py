@@ -51,29 +51,40 @@ class NodalModel:
         self.loops = histories.Loops(b.hysteretic, self.heights, plan.body.height,
                                      plan.depths, self.mpi, plan.shaking.direction) \
             if b.hysteretic is not None else None
-        self._surface(ny, nx)
+        self._rows(nx)
         self.spectra = histories.StepSpectra(plan.motion, self.dt,
-                                             frame=b.shaking.base == "rigid", psa=plan.psa)
+                                             frame=b.shaking.base == "rigid", psa=plan.psa,
+                                             depths=self.nrows)
 
-    def _surface(self, ny: int, nx: int) -> None:
-        """The weights of this rank's reduced DOFs in the surface row's mean acceleration
-        in the shaking direction (``top``, ``top_w``): 1 / nx each node, a tied DOF
-        counting for every node it stands for."""
+    def _rows(self, nx: int) -> None:
+        """The weights of this rank's reduced DOFs in the recorded rows' mean accelerations
+        in the shaking direction, the surface first (``dofs``, ``weights``, ``group``: the
+        row each weight adds to): 1 / nx each node, a tied DOF counting for every node it
+        stands for."""
         b = self.body
-        w = np.where(b.along_full & (b.row == ny - 1), 1.0 / nx, 0.0)  # the full free DOFs
+        rows = histories.record_rows(self.heights, self.plan.body.height,
+                                     self.plan.depths)[0]
+        w = np.zeros((len(rows), len(b.row)))                   # the full free DOFs
+        for i, r in enumerate(rows):
+            w[i] = np.where(b.along_full & (b.row == r), 1.0 / nx, 0.0)
         if b.T is not None:
             full, red = b.T.createVecLeft(), b.K.createVecRight()
-            full.setArray(w)
-            b.T.multTranspose(full, red)
-            w = red.getArray().copy()
+            reduced = []
+            for wi in w:
+                full.setArray(wi)
+                b.T.multTranspose(full, red)
+                reduced.append(red.getArray().copy())
+            w = np.array(reduced).reshape(len(rows), -1)
             scene.destroy(full, red)
-        self.top = np.flatnonzero(w)
-        self.top_w = w[self.top]
+        self.group, self.dofs = np.nonzero(w)
+        self.weights = w[self.group, self.dofs]
+        self.nrows = len(rows)
 
     def step(self, t: float) -> None:
         m = self.plan.motion
         self.a = self.body.step(t, m.velocity, m.acceleration)
-        self.spectra.keep(t, float(np.dot(self.a[self.top], self.top_w)), self.mpi)
+        self.spectra.keep(t, np.bincount(self.group, self.a[self.dofs] * self.weights,
+                                         minlength=self.nrows), self.mpi)
 
     def _full(self, values) -> np.ndarray:
         self.vec.setArray(values)

@@ -60,6 +60,7 @@ class DynamicPlan:
     cadence: tuple          # (output_every, checkpoint_every, checkpoint_seconds, progress)
     psa: tuple = (histories.PERIODS, 0.05)     # the spectra's periods (s) and damping
     materials: tuple | None = None     # the hyperbolic soil of each layer (None: linear)
+    twin: bool = False                 # step the linear twin after the run
 
 
 @dataclasses.dataclass(frozen=True)
@@ -87,6 +88,7 @@ class Request:
     psa: tuple                 # the spectra's periods (s) and damping ratio
     recipe: catalog.Recipe     # -mpm_material and its parameters
     small_strain_damping: float
+    twin: bool
     restart: str
     overwrite: bool
     run: dict                  # {"id": None, "options": the options as read}
@@ -116,7 +118,7 @@ class Request:
                                     int(p.psa_periods[2])), p.psa_damping),
                    cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds,
                             p.progress), recipe=catalog.Recipe.from_options(p),
-                   small_strain_damping=p.small_strain_damping,
+                   small_strain_damping=p.small_strain_damping, twin=p.linear_twin,
                    restart=p.restart, overwrite=p.overwrite,
                    run={"id": None, "options": checkpoint.recorded(options),
                         "given": sorted(given)},
@@ -234,4 +236,5 @@ def plan_of(req: Request, comm) -> DynamicPlan:
                        damping=damping, outputs=req.outputs, run=dict(req.run),
                        signature=req.signature, restart=req.restart, cadence=req.cadence,
                        psa=req.psa, materials=req.recipe.per_layer(soils)
-                       if "hyperbolic" in req.recipe.names else None)
+                       if "hyperbolic" in req.recipe.names else None,
+                       twin=req.twin and "hyperbolic" in req.recipe.names)

@@ -65,7 +65,8 @@ def _spectra(plt, plan, spec):
     ax1.plot(f, spec["smoothed"], lw=1.4, color="tab:blue", label="Konno-Ohmachi (b = 40)")
     if "exact_transfer" in spec:
         ax1.plot(f, spec["exact_transfer"], lw=1.0, ls="--", color="k", label="exact")
-    marks, label = (plan.eigen_hz, "natural frequencies (Jacobi)") if len(plan.eigen_hz) \
+    marks, label = (plan.eigen_hz, "natural frequencies (Jacobi" + (", small strain)" if
+                    plan.materials is not None else ")")) if len(plan.eigen_hz) \
         else (plan.analytic_hz, "natural frequencies (layered rod, undrained)")
     for i, fe in enumerate(marks):
         ax1.axvline(fe, color="tab:red", lw=0.8, ls=":", label=label if i == 0 else None)
@@ -82,6 +83,10 @@ def _spectra(plt, plan, spec):
     ax2.legend(fontsize=7)
     ax3.semilogx(spec["periods"], spec["psa_input"], label="input")
     ax3.semilogx(spec["periods"], spec["psa_surface"], label="surface")
+    if "at_depths" in spec:             # the recorded depths below the surface
+        d = spec["at_depths"]
+        for depth, psa in list(zip(d["depths"], d["psa"]))[1:]:
+            ax3.semilogx(d["periods"], psa, lw=0.8, ls="--", label=f"{depth:.3g} m")
     ax3.set_xlabel("period (s)")
     ax3.set_ylabel(f"PSA, {100 * spec['psa_damping']:g} % damping (m/s$^2$)")
     ax3.legend(fontsize=7)

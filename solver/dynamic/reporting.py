@@ -137,6 +137,7 @@ def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
     folder = plan.outputs.folder
     t = np.array(rec.t)
     block = {"record_depths_m": rec.depths.tolist(), "eigen_hz": plan.eigen_hz.tolist(),
+             "material": "elastic" if plan.materials is None else "hyperbolic",
              "eigen_solver": plan.eigen_solver, "analytic_hz": plan.analytic_hz.tolist(),
              "peak_surface_acceleration": float(np.max(np.abs(rec.history(
                  histories.COLUMNS[3 * rec.comp]))))}
@@ -144,6 +145,9 @@ def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
     if plan.motion.form[0] != "none" and len(t) > 8:
         a_in = plan.motion.acceleration(t)
         spec = histories.spectral(rec, a_in, model.spectra.psa(model.mpi), plan.psa)
+        steps = len(model.spectra.rows) == len(rec.depths)      # the same on every rank
+        spec["at_depths"] = histories.at_depths(
+            rec, a_in, spec, model.spectra.at_depths(model.mpi) if steps else None)
         block.update(pga_input=float(np.max(np.abs(a_in))),
                      pga_surface=block["peak_surface_acceleration"])
         if not rings(plan):
@@ -183,6 +187,8 @@ def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
         if spec is not None:
             files["spectra"] = os.path.join(folder, "spectra.csv")
             histories.write_spectra(files["spectra"], spec)
+            files["spectra_depths"] = os.path.join(folder, "spectra_depths.csv")
+            histories.write_at_depths(files["spectra_depths"], spec["at_depths"])
         if plan.outputs.figures:
             files.update(plots.draw(plan, rec, spec, exact, model.water))
         fields = series.files()
@@ -193,12 +199,13 @@ def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
 
 def hysteretic(plan, model, rec, spec, nsteps: int, record, comm) -> None:
     """A hysteretic soil's outputs: the loops at the recorded depths (loops.csv and its
-    figure) and, under a base motion, its linear twin stepped now (:mod:`twin`: the
-    summary's ``linear_twin`` block, a line, twin.csv and its figure)."""
+    figure) and, under a base motion, its linear twin stepped now unless -mpm_linear_twin
+    0 (:mod:`twin`: the summary's ``linear_twin`` block, a line, twin.csv and its
+    figure)."""
     folder, files = plan.outputs.folder, record.files
     kind = "shear" if rec.comp == 0 else "axial"
     twin_rec = twin_psa = None
-    if plan.motion.form[0] != "none":
+    if plan.motion.form[0] != "none" and plan.twin:
         twin_rec, twin_psa = twin.run(plan, comm, nsteps)
         b = twin.block(rec, twin_rec, spec, twin_psa)
         record.results["linear_twin"] = b
@@ -244,7 +251,8 @@ def _print_results(block, comm) -> None:
     if "pga_input" in block:
         lines.append(f"Peak acceleration: input {block['pga_input']:.4g} m/s2, surface "
                      f"{block['pga_surface']:.4g} m/s2")
-        jacobi = ("natural frequencies (Jacobi): " + ", ".join(
+        small = ", small strain" if block.get("material") == "hyperbolic" else ""
+        jacobi = (f"natural frequencies (Jacobi{small}): " + ", ".join(
             f"{f:.4g}" for f in block["eigen_hz"]) + " Hz; ") if block["eigen_hz"] else ""
         found = ", ".join(f"{f:.4g}" for f in block["peaks_hz"]) + " Hz" \
             if "peaks_hz" in block else ("not sought (an undamped column on a rigid base "

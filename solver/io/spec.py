@@ -253,6 +253,9 @@ SPEC = [
            "hysteresis's reach, Rayleigh at f1 and 5 f1 of the small-strain column (0: the "
            "hysteresis alone)", (DYNAMIC,),
            lambda v: None if 0 <= v < 1 else "must lie in [0, 1)"),
+    Option("linear_twin", "bool", True, "hyperbolic, under a base motion: also step the "
+           "same deposit with its soil linear (its small-strain stiffness, the same damping "
+           "and step) and report its surface PGA, PSA and peak strains beside", (DYNAMIC,)),
     Option("t_end", "float", 10.0, "end of the run (s)", (DYNAMIC,), checks.positive),
     Option("psa_damping", "float", 0.05, "the damping ratio of the pseudo-spectral "
            "accelerations' oscillators (-)", (DYNAMIC,),
@@ -351,4 +354,4 @@ NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "
                "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",
                "jacobi_tol", "jacobi_max_sweeps", "element", "points", "mcc_M", "mcc_lambda",
                "mcc_kappa", "void_ratio", "mcc_ocr", "reference_strain", "surfaces",
-               "psa_damping", "psa_periods", "small_strain_damping")
+               "psa_damping", "psa_periods", "small_strain_damping", "linear_twin")

@@ -13,6 +13,8 @@ know nothing of the run around them (the plan, the loop, the reporting).
 - ``waves``: the undrained modes a sudden load sets swinging (the wave estimate);
 - ``onephase``: one phase on the nodes: the shaken body (the eigen model's K, lumped M,
   Rayleigh damping), a rigid or compliant base, periodic or absorbing sides;
+- ``pointforces``: the internal forces of a hysteretic soil from its points' stresses
+  (B as a PETSc Mat, the compiled Iwan update), which the shaken body steps with;
 - ``flow``: one phase whose points flow across the cells: the explicit updated-Lagrangian
   step (Hencky's elasticity with the materials' returns, B-splines, walls, a Coulomb
   floor), the dynamic analysis's flowing body;
