@@ -173,8 +173,6 @@ def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
     _print_results(block, comm)
     record.results.update(block)
     files = record.files
-    if model.loops is not None:
-        hysteretic(plan, model, rec, spec, nsteps, record, comm)
     if comm.getRank() == 0:
         files["histories"] = os.path.join(folder, "histories.csv")
         histories.write_histories(files["histories"], rec, model.water)
@@ -194,6 +192,8 @@ def finish(plan, model, rec, series, record, comm, nsteps: int = 0) -> None:
         fields = series.files()
         if fields:
             files["fields_xdmf"], files["fields_h5"] = fields[0], fields[1:]
+    if model.loops is not None:     # after the run's own files: the twin takes a while
+        hysteretic(plan, model, rec, spec, nsteps, record, comm)
     record.finish()
 
 
