@@ -65,7 +65,8 @@ def plan_of(p, comm) -> ColumnPlan:
     """The plan of the options ``p``; InputError for what the column does not take."""
     body, soil, loading = Body.from_options(p), Soil.from_options(p), Loading.from_options(p)
     why = [(comm.getSize() > 1, "runs on one rank"), (p.element != "q4", "takes Q4 cells"),
-           (loading.gravity > 0, "is weightless (-mpm_gravity 0)"),
+           (loading.geostatic, "starts deposited (-mpm_initial_state deposited): its "
+                               "weight acts from the undrained start"),
            (loading.partial(body.size[0]), "is loaded over its whole top"),
            (p.material != "elastic", "is elastic (-mpm_material elastic)"),
            (len(p.layers) > 1, "is one soil"),
@@ -89,7 +90,8 @@ def plan_of(p, comm) -> ColumnPlan:
         body=body, soil=soil, loading=loading, k_law=k_law, stress=p.large_strain_stress,
         stabilize=projects(p.pressure_stabilization, "q4"),
         ends=ends, reports=reports, c_v=c_v,
-        xie_leo=k_law == ("power", 2.0) and p.large_strain_stress == "cauchy",
+        xie_leo=k_law == ("power", 2.0) and p.large_strain_stress == "cauchy"
+        and loading.gravity == 0,
         outputs=output.Outputs(p.output, summary, p.figures, p.figure_format),
         cadence=(p.checkpoint_every, p.checkpoint_seconds, p.progress),
         restart=p.restart, overwrite=p.overwrite,
@@ -211,7 +213,14 @@ def report(plan, model, record, comm) -> None:
     H, E_c = b.size[1], soil.constrained_modulus
     t = np.array([r[0] for r in model.rows])
     s = np.array([r[1] for r in model.rows])
-    small = H * q / E_c * analytic.column_degree(plan.c_v * t / H ** 2, b.drained)
+    gamma_b = (1 - soil.porosity) * (soil.rho_s - soil.rho_l) * plan.loading.gravity
+    # The small strain's settlement: the column's own (a load and its weight, the
+    # excess's mean decaying from the undrained start's), Terzaghi's for a load alone.
+    p_top, p_base = analytic.undrained_excess(q, H, soil.porosity, E_c, None, soil.rho_s,
+                                              soil.rho_l, plan.loading.gravity)
+    small = analytic.column_settlement(analytic.column_mean(
+        plan.c_v * t / H ** 2, b.drained, p_top, p_base), H, E_c, q, gamma_b) \
+        - analytic.column_settlement(0.5 * (p_top + p_base), H, E_c, q, gamma_b)
     # Xie and Leo's settlement at every sample and pressures (/ q) at the report times.
     ref = ref_p = None
     if plan.xie_leo:
@@ -234,6 +243,8 @@ def report(plan, model, record, comm) -> None:
     block.update(_half_time(t, s, ref, ultimate))
     if ref is not None:
         block["reference"] = "Xie and Leo (2004), closed form (analytic.large_strain_column)"
+    if gamma_b > 0:
+        block["drained_end"] = drained_end(plan, model, gamma_b)
     _print(block, comm)
     record.results.update(block)
     if comm.getRank() == 0:
@@ -250,12 +261,37 @@ def report(plan, model, record, comm) -> None:
                                       ref_p)
         if plan.outputs.figures:
             from .plots import large_strain
-            files.update(large_strain(plan, model, (t, s, small, ref), ref_p))
+            files.update(large_strain(plan, model, (t, s, small, ref), ref_p,
+                                      pressure_scale(plan)))
         if model.series.entries:
             files["fields_xdmf"] = model.series.path
             files["fields_h5"] = [os.path.join(folder, str(e[1]))
                                   for e in model.series.entries]
     record.finish()
+
+
+DRAINED = 1e-2     # the largest excess pressure, of the undrained start's, of a drained end
+
+
+def drained_end(plan, model, gamma_b: float) -> dict:
+    """A column under its weight at its last step against its drained end's closed form
+    (:func:`analytic.large_strain_final`: the effective stress at the points' material
+    heights, the settlement), where it has drained (the largest excess pore pressure at
+    most DRAINED of the undrained start's at the base); else how far it is."""
+    b, soil, q = plan.body, plan.soil, plan.loading.load
+    H, e = b.size[1], model.engine
+    start = q + gamma_b * H
+    left = float(np.max(np.abs(e.p))) / start
+    out = {"largest_excess_pct_of_start": 100 * left}
+    if left > DRAINED:
+        return out
+    s_ref, _, settle = analytic.large_strain_final(model.y0, H, q, gamma_b,
+                                                   soil.constrained_modulus, plan.stress)
+    out.update(stress_error_pct_of_largest=float(
+        100 * np.max(np.abs(-e.sigma[:, 1] - s_ref)) / np.max(s_ref)),
+        closed_form_settlement_m=float(settle),
+        settlement_error_pct=float(100 * (e.settlement / settle - 1)))
+    return out
 
 
 def _half_time(t, s, ref, ultimate) -> dict:
@@ -282,14 +318,26 @@ def _csv(path, cols, rows) -> str:
     return path
 
 
+def pressure_scale(plan) -> tuple:
+    """(the scale (Pa) the excess pore pressure is written and drawn over, its name): q;
+    under gravity p0 = q + gamma' H, the undrained start's at the base."""
+    soil, H = plan.soil, plan.body.size[1]
+    if plan.loading.gravity > 0:
+        gamma_b = (1 - soil.porosity) * (soil.rho_s - soil.rho_l) * plan.loading.gravity
+        return plan.loading.load + gamma_b * H, "p0"
+    return plan.loading.load, "q"
+
+
 def _profiles(path, plan, model, ref_p) -> str:
-    """profiles.csv: every point's excess pressure / q at each report time, beside Xie and
-    Leo's ``ref_p`` (one array per report time, or None)."""
-    cols = ["Tv", "t_s", "y0_m", "p_over_q_compression_positive"]
+    """profiles.csv: every point's excess pressure / q (under gravity / p0,
+    :func:`pressure_scale`) at each report time, beside Xie and Leo's ``ref_p`` (one array
+    per report time, or None)."""
+    q, name = pressure_scale(plan)
+    cols = ["Tv", "t_s", "y0_m", "p_over_q_compression_positive" if name == "q" else
+            "excess_p_over_p0_compression_positive"]
     if ref_p is not None:
         cols.append("xie_leo_p_over_q")
     rows = []
-    q = plan.loading.load
     for j, ((tv, ti), (_, p)) in enumerate(zip(plan.reports.items(), model.profiles)):
         extra = [ref_p[j]] if ref_p is not None else []
         rows += [np.column_stack([np.full(len(p), tv), np.full(len(p), ti), model.y0, p / q,
@@ -305,6 +353,16 @@ def _print(block, comm) -> None:
             line += (f"; Xie and Leo {r['xie_leo_m']:.5g} m ({r['settlement_error_pct']:+.2f} "
                      f"%), excess pressure within {r['pressure_error_pct_of_q']:.3g} % of q")
         PETSc.Sys.Print(line, comm=comm)
+    d = block.get("drained_end")
+    if d is not None:
+        PETSc.Sys.Print(
+            f"Drained end (its weight, closed form): effective stress within "
+            f"{d['stress_error_pct_of_largest']:.3g} % of its largest, settlement "
+            f"{block['settlement_final_m']:.5g} m against {d['closed_form_settlement_m']:.5g}"
+            f" m ({d['settlement_error_pct']:+.2f} %)" if "closed_form_settlement_m" in d
+            else f"Not drained at the end (the largest excess pore pressure "
+            f"{d['largest_excess_pct_of_start']:.3g} % of the undrained start's): its "
+            "drained end not compared", comm=comm)
     if "xie_leo_t_half_s" in block:
         PETSc.Sys.Print(f"Half the final settlement at t = {block['t_half_s']:.5g} s; Xie and "
                         f"Leo {block['xie_leo_t_half_s']:.5g} s "

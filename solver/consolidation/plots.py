@@ -296,18 +296,21 @@ def settlement_time_2d(plt, t, axis, mean, x_axis: float, extent, fe, ends, titl
     return fig
 
 
-def large_strain(plan, model, history, ref_p) -> dict:
+def large_strain(plan, model, history, ref_p, scale=None) -> dict:
     """The large-strain column's figure: the settlement against time (log) beside the small
     strain's and, where the scene is theirs, Xie and Leo's (``history``: t (s), the
     column's, the small strain's and theirs or None (m)); and the excess pore pressure
     against the height before the load at the report times, theirs (``ref_p``, / q, at
-    each report time, or None) dotted."""
+    each report time, or None) dotted; the pressures over ``scale`` (Pa, its name: q, or
+    p0 under gravity)."""
+    scale = scale or (plan.loading.load, "q")
     t, s, small, ref = history
     plt = output.pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
     keep = t > 0
     a.semilogx(t[keep], s[keep], "C0-", label="large strain (MPM)")
-    a.semilogx(t[keep], small[keep], "C7--", label="small strain (Terzaghi)")
+    a.semilogx(t[keep], small[keep], "C7--", label="small strain (Terzaghi)" if
+               plan.loading.gravity == 0 else "small strain (the column's own)")
     if ref is not None:
         a.semilogx(t[keep], ref[keep], "k:", lw=1.6, label="Xie and Leo (2004)")
     a.invert_yaxis()
@@ -315,14 +318,14 @@ def large_strain(plan, model, history, ref_p) -> dict:
     a.set_ylabel("settlement (m)")
     a.grid(alpha=0.3, which="both")
     a.legend(fontsize=8)
-    q = plan.loading.load
+    q, name = scale
     colors = tv_colors(plt, len(model.profiles))
     order = np.argsort(model.y0)
     for j, (tv, (_, p), c) in enumerate(zip(plan.reports, model.profiles, colors)):
         b.plot(p[order] / q, model.y0[order], "-", color=c, label=f"T_v = {tv:.4g}")
         if ref_p is not None:
             b.plot(ref_p[j][order], model.y0[order], ":", color="k", lw=1.2)
-    b.set_xlabel("excess pore pressure / q")
+    b.set_xlabel(f"excess pore pressure / {name}")
     b.set_ylabel("height before the load (m)")
     b.grid(alpha=0.3)
     b.legend(fontsize=8)

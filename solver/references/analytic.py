@@ -524,6 +524,41 @@ def large_strain_column(a, t, H0: float, q: float, m_vl: float, k0: float,
     return u, settlement
 
 
+def large_strain_final(a, H0: float, q: float, gamma_b: float, M: float,
+                       stress: str = "kirchhoff") -> tuple:
+    """The drained end of a column of height H0 (m) on rollers (no lateral strain) under a
+    load q (Pa) and its buoyant weight gamma_b (N/m3 of its initial volume: (1 - n0)
+    (rho_s - rho_l) g), its skeleton Hencky-elastic of constrained modulus M (Pa): (the
+    vertical effective stress, compression positive (Pa), and the volume ratio J at the
+    material heights ``a`` (m, before the load, up from the base); the settlement (m)).
+
+    Equilibrium alone gives the stress, whatever the law: the weight of the solids above
+    and the load, s = q + gamma_b (H0 - a) (the area stays 1). The law gives J: ``cauchy``,
+    s = -M ln J, J = exp(-s / M); ``kirchhoff``, J s = -M ln J, J = exp(-W(s / M)) = W / z
+    (Lambert's W, z = s / M). The settlement is the integral of 1 - J over a: with
+    dz = gamma_b da / M, the integral of exp(-z) is closed, and that of W(z) / z is
+    W + W^2 / 2."""
+    from scipy.special import lambertw
+
+    a = np.asarray(a, dtype=float)
+    s = q + gamma_b * (H0 - a)
+    z0, z1 = q / M, (q + gamma_b * H0) / M
+
+    def W(z):
+        return np.real(lambertw(z))
+
+    if stress == "cauchy":
+        J = np.exp(-s / M)
+        kept = H0 * math.exp(-z0) if gamma_b == 0 else M / gamma_b * (math.exp(-z0)
+                                                                         - math.exp(-z1))
+    else:
+        J = np.exp(-W(s / M))
+        w0, w1 = float(W(z0)), float(W(z1))
+        kept = H0 * math.exp(-w0) if gamma_b == 0 else \
+            M / gamma_b * ((w1 + w1 * w1 / 2) - (w0 + w0 * w0 / 2))
+    return s, J, H0 - kept
+
+
 def masing_damping(x):
     """The damping ratio (-) of a cycle at strain amplitude x = gamma_a / gamma_r of a soil
     whose backbone is the hyperbola tau = G gamma / (1 + gamma / gamma_r) and whose loops

@@ -30,7 +30,10 @@ Each step h, from the state n:
    kirchhoff, tau = D ln V; cauchy, sigma' = D ln V, the law of a constant m_vl that Xie
    and Leo take), p at the points from the nodes, the rows' edges moved by du.
 
-Serial (one rank), Q4 cells, an elastic soil without gravity: what the column needs.
+With gravity (a fresh deposit: ``-mpm_initial_state deposited``) each point's solids weigh
+(1 - n0)(rho_s - rho_l) g V0 on the grid, buoyant (the excess pore pressure leaves out the
+water's hydrostatic weight), from the undrained start on: the column consolidates under its
+own weight. Serial (one rank), Q4 cells, an elastic soil: what the column needs.
 """
 
 from __future__ import annotations
@@ -83,7 +86,8 @@ class _PerPoint:
 class LargeStrain:
     """The column of ``body`` (its cells, points per cell; loaded over its whole top,
     drained where it says) of ``soil`` (E, nu, porosity n0, k0, the water) under
-    ``loading`` (q, no gravity), its permeability law and stress measure."""
+    ``loading`` (q, gravity on a fresh deposit), its permeability law and stress
+    measure."""
 
     def __init__(self, comm, body, soil, loading, k_law: tuple, stress: str,
                  stabilize: bool = True):
@@ -103,6 +107,10 @@ class LargeStrain:
         # The rows' edges: the grid moves with the body (a point keeps its cell).
         self.edges = np.linspace(0.0, self.height, body.cells[1] + 1)
         self.e0 = soil.porosity / (1 - soil.porosity)
+        # The buoyant weight (N per m) of each point's solids, (1 - n0)(rho_s - rho_l) g V0:
+        # the water's weight is the hydrostatic pressure's, which p (the excess) leaves out.
+        self.weight = (1 - soil.porosity) * (soil.rho_s - soil.rho_l) * loading.gravity \
+            * self.V0
 
     @property
     def J(self) -> np.ndarray:
@@ -146,6 +154,8 @@ class LargeStrain:
         rhs = np.zeros((nn, 3))
         # The load on the top row (downwards), less the effective stress's nodal forces.
         rhs[nn - grid.nodes[0]:, 1] -= top_forces(grid, _whole_top(self.loading, q))
+        if self.loading.gravity > 0:     # the skeleton's buoyant weight, constant a point
+            np.add.at(rhs[:, 1], ops.u.nodes, -self.weight[:, None] * ops.u.N)
         s = self.sigma[:, [0, 1, 3]]
         f_int = np.einsum("pia,pi->pa", ops.B, s) * V[:, None]
         np.add.at(rhs.ravel(), ops.dofs[:, :ops.B.shape[2]], -f_int)
