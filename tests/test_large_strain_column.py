@@ -150,6 +150,25 @@ def test_restart_ends_where_the_whole_run_does(cli, tmp_path, column):
     assert again["settlement_final_m"] == whole["settlement_final_m"]
 
 
+@pytest.mark.mpi(2)
+def test_one_and_two_ranks_agree(cli, tmp_path):
+    """The column under its load and weight on one rank and on two (each assembling the
+    points of its own cells, the solution gathered to both): the same settlement at every
+    step and the same pressures at the report times, to 1e-9 of their largest."""
+    args = ["-mpm_gravity", "9.81", "-mpm_rho_s", "2650", "-mpm_Tv_report", "0.1,0.5",
+            "-mpm_Tv_end", "0.5", "-mpm_figures", "0"]
+    runs = []
+    for ranks in (1, 2):
+        out = tmp_path / f"r{ranks}"
+        check_ok(cli(args, ranks=ranks, options_file="consolidation-large-strain",
+                     out_dir=out))
+        runs.append([np.loadtxt(out / name, delimiter=",", skiprows=1)
+                     for name in ("settlement.csv", "profiles.csv")])
+    for a, b in zip(*runs):
+        assert a.shape == b.shape
+        assert np.max(np.abs(a - b)) <= 1e-9 * np.max(np.abs(a))
+
+
 @pytest.mark.parametrize("args, words", [
     (["-mpm_element", "q9"], "takes Q4 cells"),
     (["-mpm_k_law", "power:x"], "power:A"),

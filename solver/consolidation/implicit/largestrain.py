@@ -33,7 +33,9 @@ Each step h, from the state n:
 With gravity (a fresh deposit: ``-mpm_initial_state deposited``) each point's solids weigh
 (1 - n0)(rho_s - rho_l) g V0 on the grid, buoyant (the excess pore pressure leaves out the
 water's hydrostatic weight), from the undrained start on: the column consolidates under its
-own weight. Serial (one rank), Q4 cells, an elastic soil: what the column needs.
+own weight. Q4 cells, an elastic soil: what the column needs. On more than one rank every
+rank holds every point (a column has few) and moves them alike, each assembling the
+operators of the points of the cells it owns; the solution is gathered to all.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ from ...common.errors import InputError
 from ...common.linalg import direct_solver
 from ...materials.hencky import Hencky
 from ...materials.model import Elastic
-from ...model import lattice
+from ...model import lattice, shapes
 from ...model.grid import Grid
 from ...model.scene import top_forces
 from ...model.soil import Soil
@@ -91,9 +93,6 @@ class LargeStrain:
 
     def __init__(self, comm, body, soil, loading, k_law: tuple, stress: str,
                  stabilize: bool = True):
-        if comm.getSize() > 1:
-            raise InputError("-mpm_kinematics large: the implicit large-strain column runs on "
-                             "one rank")
         self.comm, self.body, self.soil, self.loading = comm, body, soil, loading
         self.k_law, self.stabilize = k_law, stabilize
         self.x, volume = lattice.fill(body.size, body.cells, body.ppc)
@@ -125,76 +124,104 @@ class LargeStrain:
         """e at the points: (1 + e) = J (1 + e0), the grains incompressible."""
         return self.J * (1 + self.e0) - 1
 
-    def _soils(self) -> _PerPoint:
+    def _soils(self, mine) -> _PerPoint:
         s = self.soil
-        e = self.void_ratio()
+        e = self.void_ratio()[mine]
         k = permeability(s.k, self.e0, e, self.k_law)
         return _PerPoint([Soil(E=s.E, nu=s.nu, rho_s=s.rho_s, porosity=float(ei / (1 + ei)),
                                k=float(ki), rho_l=s.rho_l, K_l=s.K_l, mu_l=s.mu_l)
                           for ei, ki in zip(e, k)])
 
     def step(self, h: float, q: float) -> None:
-        """One step of h (s; 0: the undrained start) to the load q (Pa)."""
+        """One step of h (s; 0: the undrained start) to the load q (Pa). Every rank holds
+        every point and moves them alike; each assembles the operators of the points in
+        the cells it owns, and the solution is gathered to all."""
         body = self.body
         grid = Grid(self.comm, body.element, body.cells, (body.size[0], self.height))
         grid.edges_y = self.edges
         V = self.V0 * self.J
-        ops = Operators(grid, self.x, V, np.arange(len(V)), self._soils(), self.stabilize)
+        at = _everywhere(grid, self.x)
+        mine = grid.cell_owner(at[3], at[4]) == self.comm.getRank()
+        ops = Operators(grid, self.x[mine], V[mine], np.arange(int(mine.sum())),
+                        self._soils(mine), self.stabilize)
         try:
-            du, p = self._solve(grid, ops, V, h, q)
+            du, p = self._solve(grid, ops, V, h, q, at)
             self.p_nodes = p
-            self._advance(grid, ops, du, p)
+            self._advance(grid, at, du, p)
         finally:
             ops.destroy()
             grid.destroy()
 
-    def _solve(self, grid, ops, V, h, q) -> tuple:
-        """(du (n_nodes, 2) (m), p (n_nodes,) (Pa)) of the step's linear system."""
+    def _solve(self, grid, ops, V, h, q, at) -> tuple:
+        """(du (n_nodes, 2) (m), p (n_nodes,) (Pa)) of the step's linear system, on every
+        rank in natural node order."""
+        N, dNdx, nodes = at[:3]
         nn = grid.nodes[0] * grid.nodes[1]
         rhs = np.zeros((nn, 3))
         # The load on the top row (downwards), less the effective stress's nodal forces.
         rhs[nn - grid.nodes[0]:, 1] -= top_forces(grid, _whole_top(self.loading, q))
         if self.loading.gravity > 0:     # the skeleton's buoyant weight, constant a point
-            np.add.at(rhs[:, 1], ops.u.nodes, -self.weight[:, None] * ops.u.N)
-        s = self.sigma[:, [0, 1, 3]]
-        f_int = np.einsum("pia,pi->pa", ops.B, s) * V[:, None]
-        np.add.at(rhs.ravel(), ops.dofs[:, :ops.B.shape[2]], -f_int)
+            np.add.at(rhs[:, 1], nodes, -self.weight[:, None] * N)
+        s = self.sigma
+        np.add.at(rhs[:, 0], nodes, -V[:, None] * (s[:, None, 0] * dNdx[..., 0]
+                                                   + s[:, None, 3] * dNdx[..., 1]))
+        np.add.at(rhs[:, 1], nodes, -V[:, None] * (s[:, None, 3] * dNdx[..., 0]
+                                                   + s[:, None, 1] * dNdx[..., 1]))
         # -S p_n: the nodes' pressures of the step before, node for node (the grid is the
         # one before, stretched to the body: node j of a column stays the j-th up).
+        nat = ops.da.createNaturalVec()
+        lo, hi = nat.getOwnershipRange()
         y_n = ops.da.createGlobalVec()
-        y_n.getArray().reshape(-1, 3)[:, 2] = self.p_nodes
+        before = np.zeros((nn, 3))
+        before[:, 2] = self.p_nodes
+        nat.getArray()[:] = before.ravel()[lo:hi]
+        ops.da.naturalToGlobal(nat, y_n)
         Sp = y_n.duplicate()
         ops.M.mult(y_n, Sp)
-        rhs[:, 2] = -Sp.getArray().reshape(-1, 3)[:, 2]
+        b = y_n.duplicate()
+        nat.getArray()[:] = rhs.ravel()[lo:hi]
+        ops.da.naturalToGlobal(nat, b)
+        b.getArray().reshape(-1, 3)[:, 2] = -Sp.getArray().reshape(-1, 3)[:, 2]
         J = ops.J0.copy()
         if h > 0:
             J.axpy(-h, ops.H)
         # The undrained start leaves the drained sides' pressure free (as the small-strain
         # scheme's): the water has had no time to leave.
         held = ops.rows(ops.mask(self.body.supports, self.body.drained if h > 0 else ()))
-        b = y_n.duplicate()
-        b.getArray()[:] = rhs.ravel()
-        b.getArray()[held] = 0.0
+        start = b.getOwnershipRange()[0]
+        b.getArray()[held - start] = 0.0
         J.zeroRowsColumns(held, 1.0)
         ksp = direct_solver(self.comm, J, "mpm_")
         y = y_n.duplicate()
         ksp.solve(b, y)
-        out = y.getArray().reshape(-1, 3).copy()
-        for obj in (ksp, J, y, y_n, Sp, b):
+        ops.da.globalToNatural(y, nat)
+        out = np.concatenate(self.comm.tompi4py().allgather(nat.getArray().copy()))
+        out = out.reshape(-1, 3)
+        for obj in (ksp, J, y, y_n, Sp, b, nat):
             obj.destroy()
         return out[:, :2], out[:, 2]
 
-    def _advance(self, grid, ops, du, p) -> None:
+    def _advance(self, grid, at, du, p) -> None:
         """The points moved, strained and stressed by du; their pressure p; the surface."""
-        u = ops.u
-        nodes = u.nodes
-        self.x += np.einsum("pa,pad->pd", u.N, du[nodes])
-        G = np.einsum("pai,paj->pij", du[nodes], u.dNdx)
+        N, dNdx, nodes = at[:3]
+        self.x += np.einsum("pa,pad->pd", N, du[nodes])
+        G = np.einsum("pai,paj->pij", du[nodes], dNdx)
         # The step's deformation gradient is that of its displacement, exactly: I + G.
         self.sigma, self.state = self.hencky.update(np.eye(2)[None] + G, self.state)
-        self.p = np.einsum("pa,pa->p", ops.p.N, p[ops.p.nodes])
+        self.p = np.einsum("pa,pa->p", N, p[nodes])
         self.edges = self.edges + du[::grid.nodes[0], 1]
         self.height = float(self.edges[-1])
+
+
+def _everywhere(grid, x) -> tuple:
+    """(N (np, nen), dN/dx (np, nen, 2) (1/m), the natural node numbers (np, nen), the
+    cells cx, cy (np,)) of every point x (np, 2) (m), whichever rank owns its cell."""
+    cx, cy, xi, eta = grid.locate(x)
+    N, dN = shapes.evaluate(grid.element, xi, eta)
+    dNdx = dN * np.stack([np.full(len(cy), 2.0 / grid.h[0]), 2.0 / grid.cell_heights(cy)],
+                         axis=-1)[:, None, :]
+    i, j = grid.cell_nodes(cx, cy)
+    return N, dNdx, j * grid.nodes[0] + i, cx, cy
 
 
 def _whole_top(loading, q: float):
