@@ -5,7 +5,6 @@
     .venv/bin/python scripts/benchmark --quick    # up to 1e5 points
     .venv/bin/python scripts/benchmark --sizes 2e5,1e6 --elements q4 --ranks 1,2
     .venv/bin/python scripts/benchmark --paper    # also time scripts/reproduce-paper
-    .venv/bin/python scripts/benchmark --dynamic  # only the dry deposit: scripts/site-benchmark
 
 The other benchmarks are commands of their own: scripts/footing-benchmark (the implicit
 scheme's footing of 1e5 points), scripts/site-benchmark (the site response of
@@ -227,9 +226,6 @@ def arguments(argv=None):
     ap.add_argument("--paper", action="store_true", help="time scripts/reproduce-paper")
     ap.add_argument("--paper-args", default="", help="arguments for scripts/reproduce-paper")
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per measurement")
-    ap.add_argument("--dynamic", action="store_true",
-                    help="run only the dry deposit's benchmark, linear and hyperbolic "
-                         "(scripts/site-benchmark, with --repeats and --publish/--out)")
     study.add_destination(ap, "benchmark", "benchmark.json, .txt and .png")
     ap.add_argument("--output", default=None,
                     help="prefix of the .json/.txt/.png results, in place of --out and "
@@ -473,11 +469,6 @@ def write_results(result, lines, prefix: str) -> None:
 
 def main(argv=None) -> int:
     ap, args = arguments(argv)
-    if args.dynamic:           # the dry deposit's benchmark is a command of its own
-        forward = ["--repeats", str(args.repeats)] + (["--publish"] if args.publish else []) \
-            + (["--out", args.out] if args.out else [])
-        return subprocess.call([sys.executable, str(REPO / "scripts" / "site_benchmark.py"),
-                                *forward], cwd=REPO)
     if args.output is None:
         args.output = os.path.join(study.destination(ap, args), "benchmark")
     sizes, elements, ranks = plan(args)
