@@ -138,7 +138,8 @@ def test_one_and_two_ranks_agree(cli, tmp_path):
 def test_a_restart_continues_exactly(cli, tmp_path):
     """Stopped at a checkpoint in the middle (the points' stresses and elements kept) and
     restarted, the run records what the uninterrupted run records: histories to 1e-12 of
-    their peaks, the loops to their printed digits."""
+    their peaks, the loops to their printed digits, the PSA at every recorded depth to its
+    six."""
     args, _ = reference()
     args = option(args, "t_end", 2)
     whole, half, again = tmp_path / "whole", tmp_path / "half", tmp_path / "again"
@@ -150,6 +151,11 @@ def test_a_restart_continues_exactly(cli, tmp_path):
     assert_same(histories(whole), histories(again), 1e-12, "restart")
     a, b = (np.loadtxt(r / "loops.csv", delimiter=",", skiprows=1) for r in (whole, again))
     assert a.shape == b.shape and np.all(np.abs(a - b) <= 1e-10 * np.abs(a) + 1e-300)
+    # The PSA of every recorded depth from every step goes on across the checkpoint.
+    a, b = ([r["value"] for r in csv.DictReader((f / "spectra_depths.csv").read_text()
+                                                  .splitlines())
+             if r["kind"] == "psa"] for f in (whole, again))
+    np.testing.assert_allclose(np.array(b, float), np.array(a, float), rtol=2e-6)
     assert json.loads((whole / "summary.json").read_text())["dynamic"]["material"] == \
         "hyperbolic"
 
