@@ -264,6 +264,11 @@ def write_peaks(path, rec: Recorder, H: float, water: bool, modulus=None,
     output.write_text(path, "\n".join(lines) + "\n")
 
 
+def padded(samples: int) -> int:
+    """The transforms' length: a power of two at least four times the samples."""
+    return 1 << max(1, math.ceil(math.log2(4 * samples)))
+
+
 def spectral(rec: Recorder, a_in: np.ndarray, psa=None, oscillators=(PERIODS, 0.05)) -> dict:
     """The spectra of the surface against the input ``a_in`` (m/s2, at the sample times):
     Fourier amplitudes, the transfer function (raw and Konno-Ohmachi smoothed) up to
@@ -272,7 +277,7 @@ def spectral(rec: Recorder, a_in: np.ndarray, psa=None, oscillators=(PERIODS, 0.
     (:meth:`StepSpectra.psa`, from every step), else from the samples."""
     dt = rec.t[1] - rec.t[0]
     surface = rec.history(COLUMNS[3 * rec.comp])
-    n = 1 << max(1, math.ceil(math.log2(4 * len(surface))))
+    n = padded(len(surface))
     f, A_in = spectra.fourier_amplitude(a_in, dt, n)
     _, A_top = spectra.fourier_amplitude(surface, dt, n)
     band = (f > 0) & (f <= F_MAX) & (A_in > 1e-3 * np.max(A_in))
@@ -299,7 +304,7 @@ def at_depths(rec: Recorder, a_in: np.ndarray, spec: dict, psa=None) -> dict:
     samples."""
     dt = rec.t[1] - rec.t[0]
     name = COLUMNS[3 * rec.comp]
-    n = 1 << max(1, math.ceil(math.log2(4 * len(rec.t))))
+    n = padded(len(rec.t))
     f_all = np.fft.rfftfreq(n, dt)
     keep = np.isin(f_all, spec["f"])
     fourier, own = [], []
@@ -312,8 +317,7 @@ def at_depths(rec: Recorder, a_in: np.ndarray, spec: dict, psa=None) -> dict:
     return {"depths": rec.depths, "f": spec["f"], "input": spec["input"],
             "fourier": np.array(fourier), "periods": spec["periods"],
             "psa_input": spec["psa_input"],
-            "psa": np.asarray(psa) if psa is not None else np.array(own),
-            "from_steps": psa is not None}
+            "psa": np.asarray(psa) if psa is not None else np.array(own)}
 
 
 def write_at_depths(path, d: dict) -> None:

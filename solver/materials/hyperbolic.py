@@ -134,18 +134,15 @@ def iwan_plane(eps, strain, stress, elements, G, radius, K, layer, volume, out):
     2 xy) from ``strain`` (np, 3), which takes them; ``out`` (np, 3) the in-plane stresses
     times the points' volumes ``volume`` (np,) (N m per m depth: what B^T spreads). One
     pass, no temporaries: the shaken body's step calls it every step."""
-    plastic = np.zeros(stress.shape[0], dtype=np.bool_)
     for p in range(stress.shape[0]):
         lay = layer[p]
-        plastic[p] = _point(stress[p], eps[p, 0] - strain[p, 0], eps[p, 1] - strain[p, 1],
-                            0.0, eps[p, 2] - strain[p, 2], elements[p], G[lay], radius[lay],
-                            K[lay])
+        _point(stress[p], eps[p, 0] - strain[p, 0], eps[p, 1] - strain[p, 1], 0.0,
+               eps[p, 2] - strain[p, 2], elements[p], G[lay], radius[lay], K[lay])
         for k in range(3):
             strain[p, k] = eps[p, k]
         out[p, 0] = stress[p, 0] * volume[p]
         out[p, 1] = stress[p, 1] * volume[p]
         out[p, 2] = stress[p, 3] * volume[p]
-    return plastic
 
 
 @njit(cache=True, inline="always")

@@ -53,16 +53,15 @@ class PointForces:
         self.stress = np.zeros((n, 4))
         self.strain = np.zeros((n, 3))                        # xx, yy, 2 xy
         self.elements = np.zeros((n, self.G.shape[1], 4))
-        self.plastic = np.zeros(n, dtype=bool)
         self.eps, self.sv = self.B.createVecLeft(), self.B.createVecLeft()
 
     def forces(self, u, out) -> None:
         """The internal forces (N per m depth) of the displacement ``u`` (a Vec of the
         reduced free DOFs, m) into ``out``: the points' strains and stresses move to u's."""
         self.B.mult(u, self.eps)
-        self.plastic = iwan_plane(self.eps.getArray().reshape(-1, 3), self.strain,
-                                  self.stress, self.elements, self.G, self.radius, self.K,
-                                  self.layer, self.volume, self.sv.getArray().reshape(-1, 3))
+        iwan_plane(self.eps.getArray().reshape(-1, 3), self.strain, self.stress,
+                   self.elements, self.G, self.radius, self.K, self.layer, self.volume,
+                   self.sv.getArray().reshape(-1, 3))
         self.B.multTranspose(self.sv, out)
 
     def arrays(self) -> dict:

@@ -48,7 +48,7 @@ from ...common.errors import InputError
 from ...common.linalg import direct_solver
 from ...materials.hencky import Hencky
 from ...materials.model import Elastic
-from ...model import lattice, shapes
+from ...model import assembly, lattice
 from ...model.grid import Grid
 from ...model.scene import top_forces
 from ...model.soil import Soil
@@ -215,13 +215,12 @@ class LargeStrain:
 
 def _everywhere(grid, x) -> tuple:
     """(N (np, nen), dN/dx (np, nen, 2) (1/m), the natural node numbers (np, nen), the
-    cells cx, cy (np,)) of every point x (np, 2) (m), whichever rank owns its cell."""
-    cx, cy, xi, eta = grid.locate(x)
-    N, dN = shapes.evaluate(grid.element, xi, eta)
-    dNdx = dN * np.stack([np.full(len(cy), 2.0 / grid.h[0]), 2.0 / grid.cell_heights(cy)],
-                         axis=-1)[:, None, :]
+    cells cx, cy (np,)) of every point x (np, 2) (m), whichever rank owns its cell (the
+    interpolation's own node numbers are this rank's ghosted-local ones)."""
+    it = assembly.interpolation(grid, x)
+    cx, cy = it.cells
     i, j = grid.cell_nodes(cx, cy)
-    return N, dNdx, j * grid.nodes[0] + i, cx, cy
+    return it.N, it.dNdx, j * grid.nodes[0] + i, cx, cy
 
 
 def _whole_top(loading, q: float):
