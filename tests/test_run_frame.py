@@ -19,7 +19,7 @@ import signal
 
 import numpy as np
 import pytest
-from conftest import CASES
+from conftest import CASES, PYTHON, REPO, mpi_command, run_command
 
 QUIET = ["-mpm_progress", "0", "-mpm_figures", "0"]
 
@@ -187,3 +187,28 @@ def test_failing_in_the_reporting(cli, tmp_path, monkeypatch, scene):
         assert again.summary["steps"] == s["steps"] and again.summary["wall"]["stepping_s"] < 1
     else:
         assert s["eigen"]["frequencies_hz"]["jacobi"] and s["steps"] is None
+
+
+def test_ranks_whose_clocks_differ_agree_on_the_progress_lines(tmp_path):
+    """The progress line of the flowing body takes a collective sum (its toe): every rank
+    must print it at the same steps. Rank 1's clock here runs 50 times fast; were each rank
+    to read its own, rank 1 would enter that sum at steps where rank 0 does not, and the
+    ranks' collectives would part ways (a hang or an MPI error)."""
+    wrapper = tmp_path / "skewed.py"
+    wrapper.write_text(
+        "import runpy, sys, time\n"
+        "from mpi4py import MPI\n"
+        "if MPI.COMM_WORLD.Get_rank() == 1:\n"
+        "    real = time.perf_counter\n"
+        "    time.perf_counter = lambda: 50.0 * real()\n"
+        "sys.argv = ['solver'] + sys.argv[1:]\n"
+        "runpy.run_module('solver', run_name='__main__')\n")
+    out = tmp_path / "out"
+    args = ["-options_file", CASES / "collapse-bui.opts", "-mpm_cells", "20,10",
+            "-mpm_t_end", "0.15", "-mpm_progress", "0.02", "-mpm_figures", "0",
+            "-mpm_output", out]
+    code, stdout, stderr = run_command(mpi_command(2, [PYTHON, wrapper, *args]), timeout=60,
+                                       env={"PYTHONPATH": str(REPO)})
+    assert code == 0, stderr[-2000:]
+    assert stdout.count("  step ") >= 1
+    assert (out / "summary.json").exists()

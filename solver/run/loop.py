@@ -132,12 +132,16 @@ def drive(model: Model, cadence: Cadence, record, saving: Saving, first: int = 1
             if cadence.outputs(k):
                 model.write_fields(k)
             record.steps = k
+            # Rank 0's clock decides what is due, for every rank: a model's progress may
+            # take collective sums, and ranks that read their own clocks part ways.
             now = time.perf_counter()
             due = cadence.checkpoint_seconds > 0 and now - last_save > cadence.checkpoint_seconds
-            flags = 2 * stop.seen + int(due and comm.getRank() == 0)
+            show = cadence.progress_seconds and now - last_print > cadence.progress_seconds
+            flags = 2 * stop.seen + (int(due) + 4 * int(bool(show)) if comm.getRank() == 0
+                                     else 0)
             if mpi is not None:
                 flags = mpi.allreduce(flags, op=_bor())
-            if flags or cadence.checkpoints(k):
+            if flags & 3 or cadence.checkpoints(k):
                 record.save(k)
                 last_save = time.perf_counter()
             if flags & 2:
@@ -150,7 +154,7 @@ def drive(model: Model, cadence: Cadence, record, saving: Saving, first: int = 1
                 if not cadence.outputs(k):
                     model.write_fields(k)
                 break
-            if cadence.progress_seconds and now - last_print > cadence.progress_seconds:
+            if flags & 4:
                 last_print = now
                 PETSc.Sys.Print(_progress(model, k, cadence.nsteps, now - t0, first),
                                 comm=comm)
