@@ -38,7 +38,7 @@ from ..references.experiments import COLLAPSES
 from ..run.loop import Cadence, Saving, drive
 from ..run.record import Record, begun, guarded
 from ..stepping.flow import Flow
-from . import runout
+from . import penetration, runout
 
 MAX_STEPS = 5e7
 SIDES = ("left", "right", "bottom", "top")
@@ -51,7 +51,8 @@ class FlowPlan:
     ``material`` and the compression-wave speed ``wave`` (m/s); the grid's ``walls``,
     ``friction`` of the floor, ``gravity`` (m/s2), F-bar, FLIP share, local damping; the
     step dt (s); the end (s) and rest fraction; the experiment (None or a
-    :class:`references.experiments.Collapse`); outputs, cadence, restart and provenance."""
+    :class:`references.experiments.Collapse`); a footing pushed in
+    (:func:`penetration.plan_of`); outputs, cadence, restart and provenance."""
 
     size: tuple
     cells: tuple
@@ -70,6 +71,7 @@ class FlowPlan:
     t_end: float
     rest_energy: float
     experiment: object
+    footing: object           # None, or penetration.plan_of's dict
     outputs: output.Outputs
     cadence: tuple            # (output_every, checkpoint_every, checkpoint_seconds, progress)
     restart: str
@@ -143,15 +145,16 @@ def plan_of(p) -> FlowPlan:
     if p.floor_friction and walls.get("bottom") != "y":
         raise InputError(f"-mpm_floor_friction {p.floor_friction:g}: with -mpm_bc_bottom y "
                          "(a floor that holds y alone; xy holds its points)")
-    if p.gravity <= 0:
-        raise InputError("-mpm_gravity: the flowing body moves under gravity (give it, "
-                         "e.g. 9.81)")
+    if p.gravity <= 0 and not p.footing:
+        raise InputError("-mpm_gravity: the flowing body moves under gravity or a footing "
+                         "(give -mpm_gravity, e.g. 9.81, or -mpm_footing)")
     for name in ("rho_s", "porosity"):
         if isinstance(getattr(p, name), tuple):
             raise InputError(f"-mpm_{name}: one value (the flowing body is one soil)")
     grid = _grid(p.size, p.cells, p.grid_size, p.shape)
     soil = Soil(E=p.E, nu=p.nu, rho_s=p.rho_s, porosity=p.porosity, rho_l=p.rho_l)
     wave = math.sqrt(constrained_modulus(p.E, p.nu) / soil.density)
+    footing = penetration.plan_of(p, soil.density)
     summary = p.summary or os.path.join(p.output, "summary.json")
     options = provenance.options(p)
     given = set(p.given) | set(given_at_start(p.restart))
@@ -160,8 +163,10 @@ def plan_of(p) -> FlowPlan:
         density=soil.density, material=material, wave=wave, walls=walls,
         friction=p.floor_friction, gravity=p.gravity, fbar=p.bbar,
         flip=0.99 if p.flip == "auto" else float(p.flip), damping=p.damping,
-        dt=p.dt_safety * min(grid.h) / wave, t_end=p.t_end, rest_energy=p.rest_energy,
-        experiment=_experiment(p.experiment, tuple(p.size), recipe),
+        dt=p.dt_safety * min(grid.h) / wave,
+        t_end=penetration.duration(grid, tuple(p.size), footing) if footing else p.t_end,
+        rest_energy=0.0 if footing else p.rest_energy,
+        experiment=_experiment(p.experiment, tuple(p.size), recipe), footing=footing,
         outputs=output.Outputs(p.output, summary, p.figures, p.figure_format),
         cadence=(p.output_every, p.checkpoint_every, p.checkpoint_seconds, p.progress),
         restart=p.restart, overwrite=p.overwrite,
@@ -204,11 +209,15 @@ class Flowing:
         x, volume = lattice.fill(plan.size, plan.cells, plan.ppc)
         self.n_global = len(x)
         self.ids = np.array_split(np.arange(len(x)), comm.getSize())[comm.getRank()]
+        footing = penetration.make(plan.grid, plan.size, plan.footing) if plan.footing \
+            else None
         self.flow = Flow(plan.grid, x[self.ids], volume, plan.density, plan.material,
                          g=plan.gravity, walls=plan.walls, damping=plan.damping,
-                         flip=plan.flip, fbar=plan.fbar, friction=plan.friction, comm=comm)
+                         flip=plan.flip, fbar=plan.fbar, friction=plan.friction, comm=comm,
+                         footing=footing)
         self.dt = plan.dt
         self.nsteps = int(math.ceil(plan.t_end / self.dt - 1e-9))
+        self.curve = penetration.Curve(footing, self.nsteps) if footing else None
         if self.nsteps > MAX_STEPS:
             raise InputError(f"-mpm_t_end {plan.t_end:g}: {self.nsteps:.3g} steps of "
                              f"{self.dt:.3g} s; more than {MAX_STEPS:.0e} is not a run that "
@@ -256,6 +265,8 @@ class Flowing:
         fraction = self.plan.rest_energy
         self.rest = bool(fraction and self.kinetic < self.peak
                          and self.kinetic <= fraction * self.peak)
+        if self.curve is not None:
+            self.curve.sample(k, k == self.nsteps)
 
     def finished(self, k: int) -> bool:
         if self.rest and (not self.energy or self.energy[-1][0] < self.time(k)):
@@ -273,12 +284,15 @@ class Flowing:
 
     def state(self) -> dict:
         return {"dt": self.dt, "peak": self.peak, "kinetic": self.kinetic,
-                "energy": self.energy, "series": self.series.entries}
+                "energy": self.energy, "series": self.series.entries,
+                **(self.curve.state() if self.curve is not None else {})}
 
     def progress(self, k: int) -> str:
         share = 100 * self.kinetic / self.peak if self.peak else 0.0
+        where = self.curve.progress() if self.curve is not None else \
+            f"toe at {self.toe():.4g} m"
         return (f"t = {self.time(k):.4g} s, kinetic energy {self.kinetic:.3g} J/m "
-                f"({share:.2g} % of its peak), toe at {self.toe():.4g} m")
+                f"({share:.2g} % of its peak), {where}")
 
     def _restore(self, ckpt) -> None:
         """Take up the points and records of the checkpoint ``ckpt``: this rank's share of
@@ -299,4 +313,6 @@ class Flowing:
         f.time = (self.first - 1) * self.dt
         self.peak, self.kinetic = float(state["peak"]), float(state["kinetic"])
         self.energy = [tuple(row) for row in state["energy"]]
+        if self.curve is not None:
+            self.curve.restore(state)
         self.series.resume(state["series"], ckpt.run_id)

@@ -121,7 +121,8 @@ def _peaks(plt, plan, rec, water):
 def deposit(plan, model, final, profile, toe) -> dict:
     """The flowing body's figure: the deposit's points (coloured by their plastic
     multiplier) and free surface over the initial shape, with the scene's experiment (its
-    surface and failure line) where it has one; beside it the kinetic energy against time.
+    surface and failure line) where it has one, the footing where one is pushed in; beside
+    it the kinetic energy against time.
     ``final``: the points' gathered arrays (x, x0, eps_p), ``profile`` (x, surface) (m)."""
     plt = output.pyplot()
     fig, (ax, ax_e) = plt.subplots(2, 1, figsize=(8, 5.2),
@@ -134,7 +135,13 @@ def deposit(plan, model, final, profile, toe) -> dict:
     dots = ax.scatter(final["x"][:, 0], final["x"][:, 1], c=final["eps_p"], s=2,
                       cmap="viridis", vmin=0, vmax=top, rasterized=True)
     fig.colorbar(dots, ax=ax, label="plastic multiplier (-)", shrink=0.6, extend="max")
-    ax.plot(*profile, "C3-", lw=1.2, label=f"computed surface (toe {toe:.3g} m)")
+    ax.plot(*profile, "C3-", lw=1.2, label="computed surface" + (
+        "" if plan.footing else f" (toe {toe:.3g} m)"))
+    if plan.footing:
+        (x0, x1), base = plan.footing["x"], H - model.curve.footing.settlement(
+            model.curve.footing.t)
+        ax.fill([x0, x1, x1, x0], [base, base, H * 1.15, H * 1.15], color="0.6",
+                alpha=0.6, label="footing")
     e = plan.experiment
     if e is not None:
         ax.plot(*e.surface.T, "ko", ms=3.5, mfc="none",

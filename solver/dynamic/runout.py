@@ -17,6 +17,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..io import output
+from . import penetration
 
 
 def print_plan(plan, model, comm) -> None:
@@ -27,14 +28,17 @@ def print_plan(plan, model, comm) -> None:
              "none": "no floor"}[floor]
     PETSc.Sys.Print(
         f"Dynamic analysis, large deformation: a {plan.size[0]:g} x {plan.size[1]:g} m body "
-        f"of {type(m).__name__} flowing under gravity {plan.gravity:g} m/s2\n"
+        f"of {type(m).__name__} " + (f"flowing under gravity {plan.gravity:g} m/s2"
+                                    if plan.gravity else "without weight") + "\n"
         f"Grid: {g.cells[0]} x {g.cells[1]} cells of {g.h[0]:.4g} x {g.h[1]:.4g} m, "
         f"{'quadratic B-splines' if g.kind == 'bspline' else 'hat functions'}, "
         f"{model.n_global} points ({plan.ppc} x {plan.ppc} per cell), {floor}"
-        f"{', F-bar' if plan.fbar else ''}, FLIP {plan.flip:g}\n"
+        f"{', F-bar' if plan.fbar else ''}, FLIP {plan.flip:g}"
+        f"{'; ' + penetration.describe(plan) if plan.footing else ''}\n"
         f"Steps: at most {model.nsteps} of {model.dt:.4g} s (h / c at c = {plan.wave:.4g} "
-        f"m/s x {plan.dt * plan.wave / min(g.h):g}) to {plan.t_end:g} s, or until the "
-        f"kinetic energy has fallen to {plan.rest_energy:g} of its peak", comm=comm)
+        f"m/s x {plan.dt * plan.wave / min(g.h):g}) to {plan.t_end:.4g} s"
+        + ("" if plan.footing else ", or until the kinetic energy has fallen to "
+           f"{plan.rest_energy:g} of its peak"), comm=comm)
 
 
 def keys(plan, model) -> dict:
@@ -141,6 +145,8 @@ def finish(plan, model, record, comm) -> None:
         block["height_final_m"] = float(height.max())
         if plan.experiment is not None:
             block["experiment"] = compare(plan.experiment, xc, height, toe)
+        if plan.footing:
+            penetration.write(plan, model.curve, files)
         files["energy"] = _csv(os.path.join(folder, "energy.csv"), "t_s,kinetic_energy_J_per_m",
                                np.array(model.energy).reshape(-1, 2))
         files["profile"] = _csv(os.path.join(folder, "profile.csv"), "x_m,surface_m",
@@ -152,6 +158,8 @@ def finish(plan, model, record, comm) -> None:
         if series:
             files["fields_xdmf"], files["fields_h5"] = series[0], series[1:]
     block = comm.tompi4py().bcast(block, root=0)
+    if plan.footing:
+        block["footing"] = penetration.block(plan, model.curve)
     _print_results(block, plan, comm)
     record.results.update(block)
     record.finish()
@@ -167,6 +175,11 @@ def _print_results(block, plan, comm) -> None:
     rest = ("at rest (kinetic energy " f"{block['kinetic_energy_final_J_per_m']:.3g} J/m, "
             f"{plan.rest_energy:g} of its peak {block['kinetic_energy_peak_J_per_m']:.3g})"
             if block["at_rest"] else "not yet at rest")
+    if "footing" in block:
+        PETSc.Sys.Print(f"Final state at t = {block['t_final_s']:.4g} s; mass "
+                        f"{block['mass_final_kg']:.6g} kg per m", comm=comm)
+        penetration.print_results(block["footing"], comm)
+        return
     PETSc.Sys.Print(f"Final state at t = {block['t_final_s']:.4g} s, {rest}: toe at "
                     f"{block['toe_m']:.4g} m (runout {block['runout_m']:.4g} m), height "
                     f"{block['height_final_m']:.4g} m; mass {block['mass_final_kg']:.6g} kg "

@@ -325,10 +325,15 @@ SPEC = [
            "amplitude", (SOILTEST,), checks.positive),
     Option("strain_steps", "int", 500, "soil test steps", (SOILTEST,), checks.at_least_one),
     Option("footing", "floats", (), "the rigid strip footing x0,x1 on the top (m; a half "
-           "model: 0,B/2 with rollers on x = 0)", (STATIC,), length=2),
+           "model: 0,B/2 with rollers on x = 0); dynamic large: pushed in at "
+           "-mpm_footing_velocity", (STATIC, DYNAMIC), length=2),
     Option("footing_interface", "str", "smooth", "smooth (the footing holds the vertical "
-           "displacement) or rough (both)", (STATIC,), choices=("smooth", "rough")),
-    Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)", (STATIC,), checks.positive),
+           "displacement) or rough (both)", (STATIC, DYNAMIC), choices=("smooth", "rough")),
+    Option("footing_settlement", "float", 0.01, "the footing's settlement at the end (m)",
+           (STATIC, DYNAMIC), checks.positive),
+    Option("footing_velocity", "float", 0.05, "dynamic large: the footing's speed (m/s), "
+           "reached by a linear ramp over 20 (x1 - x0) / c_s (c_s the shear-wave speed)",
+           (DYNAMIC,), checks.positive),
     Option("surcharge", "float", 0.0, "a pressure q0 on the top beside the footing or load "
            "(Pa), from the start", (STATIC,), checks.nonnegative),
     Option("load_steps", "int", 20, "equal settlement steps (each halved where Newton does "
@@ -348,7 +353,8 @@ SPEC = [
 FLOWING_ONLY = ("gravity", "dt_safety", "damping", "flip", "bbar", "grid_size", "shape",
                 "floor_friction", "rest_energy", "experiment", "cohesion",
                 "friction_angle", "dilation_angle", "tension_cutoff", "bc_left", "bc_right",
-                "bc_bottom", "bc_top")
+                "bc_bottom", "bc_top", "footing", "footing_interface", "footing_settlement",
+                "footing_velocity")
 NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "base",
                "rock_Vs", "rock_Vp", "rock_rho", "bc_sides", "rayleigh", "record_depths",
                "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",

@@ -53,11 +53,11 @@ class Flow:
     ``x`` (np, 2) (m), volumes ``volume`` (np,) (m3 per m), density ``rho`` (kg/m3),
     ``material`` one of the materials room's (its elasticity Hencky's), gravity ``g``
     (m/s2, downwards), ``walls`` {side: components held} of the grid
-    (:func:`lattice.walls`), ``damping`` alpha (-), ``flip`` (-) and ``fbar`` (F-bar over
-    cells, :meth:`_fbar`)."""
+    (:func:`lattice.walls`), ``damping`` alpha (-), ``flip`` (-), ``fbar`` (F-bar over
+    cells, :meth:`_fbar`) and a ``footing`` pushed into it (:mod:`solver.stepping.footing`)."""
 
     def __init__(self, grid, x, volume, rho, material, g=9.81, walls=None,
-                 damping=0.0, flip=1.0, fbar=False, friction=0.0, comm=None):
+                 damping=0.0, flip=1.0, fbar=False, friction=0.0, comm=None, footing=None):
         self.grid = grid
         self.x = np.array(x, dtype=float)
         self.x0 = self.x.copy()
@@ -68,6 +68,7 @@ class Flow:
         self.held, self.source, self.sign = lattice.walls(grid, walls or {})
         self.ghosts = np.flatnonzero(self.source != np.arange(grid.n_nodes))
         self.friction = friction
+        self.footing = footing      # a footing.Footing pushed into the body, or None
         # The floor's own nodes (y = 0, its y held): where Coulomb friction acts.
         on_floor = np.isclose(grid.positions()[:, 1], 0.0) & self.held[:, 1]
         self.floor = np.flatnonzero(on_floor & (self.source == np.arange(grid.n_nodes)))
@@ -151,6 +152,9 @@ class Flow:
             self._floor_friction(vn, a, dt, beside, mass)
         a[self.held] = 0.0
         vn[self.held] = 0.0
+        if self.footing is not None:
+            self.footing.constrain(vn, a, np.where(active, mass, 0.0), dt, self.held,
+                                   self.source, self.sign)
         # Beyond a wall the nodes mirror the nodes inside (lattice.walls).
         a[self.ghosts], vn[self.ghosts] = sgn * a[src], sgn * vn[src]
         self._advance(a, vn + dt * a, V, dt)
