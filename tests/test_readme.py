@@ -102,7 +102,10 @@ def _reference_words(p) -> set:
         # One point against its test's closed form: Cam Clay's at the critical state.
         return {"critical state"} if p.material == "mcc" else {"closed form"}
     if p.analysis == "dynamic" and p.kinematics == "large":
-        # A flowing body: the experiment it names, or none.
+        # A flowing body: a Tresca footing's Prandtl at small settlement, the experiment it
+        # names, or none.
+        if p.footing:
+            return {"Prandtl", "small settlement"} if p.material == "tresca" else {"none"}
         return {"none"} if p.experiment == "none" else {"experiment", "Bui"}
     if p.analysis == "dynamic":
         # Two phases: the saturated column's waves, then Terzaghi; one phase: the exact

@@ -1,6 +1,6 @@
 """The dynamic analysis: ``-mpm_analysis dynamic``, the body shaken at its base or loaded
 suddenly, stepped in time; with ``-mpm_kinematics large``, a body flowing under gravity
-across a grid larger than itself (a granular column's collapse).
+across a grid larger than itself (a granular column's collapse), or a footing pushed into it.
 
 - ``driver``: the analysis, run by the command line: the model as the loop drives it
   (``Shaken``), its records and field series;
@@ -17,6 +17,7 @@ across a grid larger than itself (a granular column's collapse).
 - ``flowing``: the flowing body: its options planned, the model the loop drives;
 - ``runout``: its reporting: the deposit's free surface, toe, energy, the experiment
   beside it, the summary's block;
+- ``penetration``: a footing pushed into the flowing body: its plan, curve and report;
 - ``plots``: the figures.
 
 May import: consolidation, consolidation.implicit, eigen, stepping, modal, run, io,

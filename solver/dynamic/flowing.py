@@ -154,7 +154,16 @@ def plan_of(p) -> FlowPlan:
     grid = _grid(p.size, p.cells, p.grid_size, p.shape)
     soil = Soil(E=p.E, nu=p.nu, rho_s=p.rho_s, porosity=p.porosity, rho_l=p.rho_l)
     wave = math.sqrt(constrained_modulus(p.E, p.nu) / soil.density)
-    footing = penetration.plan_of(p, soil.density)
+    footing = None
+    if p.footing:
+        if "t_end" in p.given or "rest_energy" in p.given:
+            raise InputError("-mpm_t_end, -mpm_rest_energy: a pushed footing's run ends at "
+                             "its settlement (-mpm_footing_settlement)")
+        footing = penetration.plan_of(
+            tuple(p.footing), p.footing_interface == "rough", p.footing_velocity,
+            p.footing_settlement, (tuple(p.size), p.cells[1], p.ppc),
+            math.sqrt(p.E / (2 * (1 + p.nu)) / soil.density),
+            p.cohesion if p.material == "tresca" and p.gravity == 0 else math.nan)
     summary = p.summary or os.path.join(p.output, "summary.json")
     options = provenance.options(p)
     given = set(p.given) | set(given_at_start(p.restart))

@@ -19,6 +19,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..common.errors import InputError
+from ..io import output
 from ..stepping.footing import Footing
 
 WINDOW = (0.025, 0.05)       # the plateau's settlements, in footing widths
@@ -26,31 +27,25 @@ ROWS = 400                   # about so many rows in the curve
 RAMP = 20.0                  # the ramp's duration in shear-wave crossings of x1 - x0
 
 
-def plan_of(p, density) -> dict | None:
-    """The footing of the options ``p`` (None without ``-mpm_footing``): its extent (m),
-    interface, speed (m/s), ramp (s), end settlement (m), width B (m) and reference
-    (Pa, its name; NaN, '' where none applies). InputError where it does not fit."""
-    if not p.footing:
-        return None
-    x0, x1 = p.footing
-    W = p.size[0]
+def plan_of(extent, rough, velocity, settlement, body, shear_wave, cohesion) -> dict:
+    """The footing of ``extent`` (x0, x1) (m), ``rough`` or not, pushed at ``velocity``
+    (m/s) to ``settlement`` (m) into the ``body`` (size (W, H) (m), cells up, points per
+    cell) of shear-wave speed ``shear_wave`` (m/s); ``cohesion``: c_u (Pa) of a weightless
+    Tresca soil (Prandtl's the reference), else NaN. Returns its extent, interface, speed,
+    ramp (s), end settlement, width B (m), the markers' inset and the reference (Pa, its
+    name; NaN, '' where none applies). InputError where it does not fit."""
+    (x0, x1), ((W, H), rows, ppc) = extent, body
     if not 0 <= x0 < x1 <= W:
         raise InputError(f"-mpm_footing {x0:g},{x1:g}: 0 <= x0 < x1 <= the body's width "
                          f"{W:g} m")
-    if "t_end" in p.given or "rest_energy" in p.given:
-        raise InputError("-mpm_t_end, -mpm_rest_energy: a pushed footing's run ends at its "
-                         "settlement (-mpm_footing_settlement)")
-    if p.footing_settlement >= p.size[1]:
-        raise InputError(f"-mpm_footing_settlement {p.footing_settlement:g}: less than the "
-                         f"body's height {p.size[1]:g} m")
-    c_s = math.sqrt(p.E / (2 * (1 + p.nu)) / density)
-    width = 2 * x1 if x0 == 0 else x1 - x0
-    tresca = p.material == "tresca" and p.gravity == 0
-    return {"x": (x0, x1), "rough": p.footing_interface == "rough",
-            "velocity": p.footing_velocity, "ramp": RAMP * (x1 - x0) / c_s,
-            "settlement": p.footing_settlement, "width": width,
-            "inset": 0.5 * p.size[1] / p.cells[1] / p.ppc,
-            "reference": ((2 + math.pi) * p.cohesion, "Prandtl (2 + pi) c_u") if tresca
+    if settlement >= H:
+        raise InputError(f"-mpm_footing_settlement {settlement:g}: less than the body's "
+                         f"height {H:g} m")
+    tresca = not math.isnan(cohesion)
+    return {"x": (x0, x1), "rough": rough, "velocity": velocity,
+            "ramp": RAMP * (x1 - x0) / shear_wave, "settlement": settlement,
+            "width": 2 * x1 if x0 == 0 else x1 - x0, "inset": 0.5 * H / rows / ppc,
+            "reference": ((2 + math.pi) * cohesion, "Prandtl (2 + pi) c_u") if tresca
             else (math.nan, "")}
 
 
@@ -117,14 +112,12 @@ def block(plan, curve: Curve) -> dict:
 
 def write(plan, curve: Curve, files: dict) -> None:
     """load_displacement.csv and its figure (rank 0)."""
-    from ..static.reporting import write_curve
-
     f = plan.footing
     ref, name = f["reference"]
-    files.update(write_curve(plan.outputs, np.array(curve.rows).reshape(-1, 2), ref,
-                             name + " (small settlement)" if name else "",
-                             "mean contact pressure (kPa)", window=[
-                                 w * f["width"] for w in WINDOW]))
+    files.update(output.load_displacement(
+        plan.outputs, np.array(curve.rows).reshape(-1, 2), ref,
+        name + " (small settlement)" if name else "", "mean contact pressure (kPa)",
+        window=[w * f["width"] for w in WINDOW]))
 
 
 def print_results(b: dict, comm) -> None:

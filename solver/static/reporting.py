@@ -85,41 +85,9 @@ def report(plan, curve, residuals, n_points, comm, record, failed: bool = False)
                     + (f"; {name} = {ref:.6g} Pa: {100 * (capacity / ref - 1):+.2f} %"
                        if name and math.isfinite(capacity) else ""), comm=comm)
     if comm.getRank() == 0:
-        record.files.update(write_curve(
+        record.files.update(output.load_displacement(
             plan.outputs, curve, ref, name, "the load (kPa)" if plan.load_control else
             "mean contact pressure (kPa)"))
-
-
-def write_curve(outputs, curve, ref, name, ylabel, window=None) -> dict:
-    """load_displacement.csv (settlement_m, pressure_pa) of ``curve`` (n, 2) and its figure
-    with the reference ``ref`` (Pa) named ``name`` ('': none) over the settlements
-    ``window`` (m; None: all); returns the files by key."""
-    folder = outputs.folder
-    os.makedirs(folder, exist_ok=True)
-    path = os.path.join(folder, "load_displacement.csv")
-    with output.atomic(path) as tmp:
-        np.savetxt(tmp, curve, delimiter=",", comments="", header="settlement_m,pressure_pa")
-    files = {"load_displacement": path}
-    if outputs.figures:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(6, 4))
-        ax.plot(1e3 * curve[:, 0], curve[:, 1] / 1e3, "o-" if len(curve) < 60 else "-",
-                ms=3, label="material points")
-        if name and window is None:
-            ax.axhline(ref / 1e3, color="k", ls="--", label=name)
-        elif name:
-            ax.plot([1e3 * w for w in window], [ref / 1e3] * 2, "k--", lw=2, label=name)
-        ax.set_xlabel("settlement (mm)")
-        ax.set_ylabel(ylabel)
-        ax.legend()
-        ax.grid(alpha=0.3)
-        files["figures"] = output.save_figure(
-            fig, os.path.join(folder, "load_displacement.png"), formats=outputs.formats)
-    return files
 
 
 def plastic_zone(plan, points, problem, comm, record):

@@ -18,6 +18,7 @@ know nothing of the run around them (the plan, the loop, the reporting).
 - ``flow``: one phase whose points flow across the cells: the explicit updated-Lagrangian
   step (Hencky's elasticity with the materials' returns, B-splines, walls, a Coulomb
   floor), the dynamic analysis's flowing body;
+- ``footing``: a rigid strip footing pushed into it, a kinematic constraint on the grid;
 - ``transfer``: its compiled transfers between the points and the grid (numba).
 
 May import: modal, run, io, references, materials, model, common.
