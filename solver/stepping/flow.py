@@ -8,8 +8,9 @@ Each step (update stress last, FLIP with a share of PIC):
    f_a = -sum V_p sigma_p grad N + sum N m_p g, with the current volume V_p = J_p V_p0;
 2. the nodes: v_a = momentum / m_a, local damping of the force against v_a
    (-alpha |f| sign v, which vanishes at rest), a_a = f_a / m_a, held components zero on
-   the walls and the floor, the ghost nodes beyond them mirroring the nodes inside
-   (:func:`lattice.walls`), v_a' = v_a + dt a_a; nodes without mass are left out;
+   the walls and the floor, a footing's constraint (:mod:`solver.stepping.footing`), the
+   ghost nodes beyond the walls mirroring the nodes inside (:func:`lattice.walls`),
+   v_a' = v_a + dt a_a; nodes without mass are left out;
 3. grid to points: v_p <- flip (v_p + dt sum N a) + (1 - flip) sum N v', x_p += dt sum N v',
    the velocity gradient L = sum v' (x) grad N, the incremental deformation gradient
    f = (I - dt L / 2)^-1 (I + dt L / 2) (:func:`increment`), with F-bar over cells if

@@ -2,18 +2,18 @@
 a prescribed velocity: its base a kinematic constraint on the grid's new velocities.
 
 The base is a row of markers, one per cell width from x0 to x1, at the centres of the top
-row of points under it (half a point's height under the base: at the base itself, the
+row of points under it (half a point's height under the base: at the base itself the
 pressure rose by 7 % each time the base crossed half a cell, at every cell size measured,
 and stayed there; at the points' centres the curve is smooth and the same as after that
-jump). Each
-step, once the nodes' trial velocities v' = v + dt a are known, the markers' interpolated
-velocities are made the footing's: v' <- v' + M^-1 C^T lambda with C the markers' shape
-functions over the nodes (the walls' ghosts folded onto the nodes they mirror) and M the
-lumped masses, lambda from (C M^-1 C^T) lambda = v_footing - C v' (a marker per column of
-nodes: the system is small and well conditioned). The impulse C^T lambda over dt is the
-footing's force on the soil: smooth, the markers hold the vertical velocity; rough, both.
-This is the explicit step's exact constraint (no penalty, so no stiffness to shorten the
-step), the same on every rank (the nodal sums are the whole grid's there).
+jump). Each step, once the nodes' trial velocities v' = v + dt a are known, the markers'
+interpolated velocities are made the footing's: v' <- v' + M^-1 C^T lambda, C the
+markers' shape functions over the nodes (the walls' ghosts folded onto the nodes they
+mirror), M the lumped masses, lambda from (C M^-1 C^T) lambda = v_footing - C v' (a
+marker per column of nodes: the system is small and well conditioned). The impulse
+C^T lambda over dt is the footing's force on the soil: smooth, the markers hold the
+vertical velocity; rough, both. The constraint is exact each step (no penalty, so no
+stiffness to shorten the step) and the same on every rank (each has the whole grid's
+sums).
 
 The push ramps up linearly over ``ramp`` seconds, then holds ``velocity``: a sudden start
 would send a compression wave of rho c v into the soil.
