@@ -55,13 +55,14 @@ def test_the_plateau_comes_down_to_prandtl_under_refinement(cli, tmp_path):
     assert 0 < fine < 0.7 * coarse and fine < 0.15, errors
 
 
-def _pushed(fbar: bool):
+def _pushed(fbar: bool, rough: bool = False):
     """A footing of half-width 0.25 m pushed 2 cm into a 2 m x 1 m half model of Tresca
-    soil (nu 0.49) on 0.125 m cells: the points' pressure (Pa) and their initial cells."""
+    soil (nu 0.49) on 0.125 m cells: the points' pressure (Pa), their initial cells, the
+    cells across and up, and the flow."""
     h, W, H, nu, E, rho = 0.125, 2.0, 1.0, 0.49, 10e6, 1990.0
     grid = lattice.Lattice("bspline", (int(W / h), int((H + 0.25) / h)), (h, h))
     x, volume = lattice.fill((W, H), (int(W / h), int(H / h)), 2)
-    footing = Footing(grid, 0.0, 0.25, H, False, 0.05, 0.1, 0.02, inset=h / 4)
+    footing = Footing(grid, 0.0, 0.25, H, rough, 0.05, 0.1, 0.02, inset=h / 4)
     flow = Flow(grid, x, volume, rho, make("tresca", E, nu, 10e3), g=0.0, flip=0.99,
                 walls={"left": "x", "right": "x", "bottom": "xy"}, fbar=fbar,
                 footing=footing)
@@ -71,7 +72,7 @@ def _pushed(fbar: bool):
         flow.step(dt)
     p = -flow.sigma[:, :3].mean(axis=1)
     cell = np.floor(flow.x0 / h).astype(int)
-    return p, cell, int(W / h), int(H / h)
+    return p, cell, int(W / h), int(H / h), flow
 
 
 @pytest.mark.parametrize("fbar", [True, False], ids=["fbar", "plain"])
@@ -80,7 +81,7 @@ def test_the_pressure_field_has_no_checkerboard(fbar):
     into a checkerboard, point to point (each cell's four points spread by twice the mean
     pressure) and cell to cell (the alternating part of the cells' pressures 0.29 of their
     smooth part under the footing); F-bar over cells takes both out (0 and 0.06)."""
-    p, cell, nx, ny = _pushed(fbar)
+    p, cell, nx, ny, _ = _pushed(fbar)
     field = np.zeros((ny, nx))
     np.add.at(field, (cell[:, 1], cell[:, 0]), p / 4)       # 2 x 2 points a cell
     spread = np.sqrt(np.mean((p - field[cell[:, 1], cell[:, 0]]) ** 2) / np.mean(field ** 2))
@@ -92,6 +93,19 @@ def test_the_pressure_field_has_no_checkerboard(fbar):
         assert spread < 1e-3 and checker < 0.1, (spread, checker)
     else:
         assert spread > 0.5 and checker > 0.2, (spread, checker)
+
+
+def test_a_rough_footing_holds_the_soil_under_it():
+    """The top row of points under the footing: pushed 2 cm by a smooth footing they spread
+    outwards (the soil flows out from under it), under a rough one they stay where they
+    were across (measured: 4.5 mm against 0.11 mm)."""
+    moved = []
+    for rough in (False, True):
+        *_, flow = _pushed(True, rough)
+        top = (flow.x0[:, 1] > 1.0 - 0.0625) & (flow.x0[:, 0] < 0.2)
+        moved.append(np.abs(flow.x[top, 0] - flow.x0[top, 0]).max())
+    smooth, rough = moved
+    assert smooth > 1e-3 and rough < 0.1 * smooth, moved
 
 
 COARSE = ["-mpm_cells", "16,12", "-mpm_footing_settlement", "0.1", "-mpm_progress", "0",
