@@ -161,7 +161,7 @@ def plan_of(p) -> FlowPlan:
                              "its settlement (-mpm_footing_settlement)")
         footing = penetration.plan_of(
             tuple(p.footing), p.footing_interface == "rough", p.footing_velocity,
-            p.footing_settlement, (tuple(p.size), p.cells[1], p.ppc),
+            p.footing_settlement, (tuple(p.size), tuple(p.cells), p.ppc),
             math.sqrt(p.E / (2 * (1 + p.nu)) / soil.density),
             p.cohesion if p.material == "tresca" and p.gravity == 0 else math.nan)
     summary = p.summary or os.path.join(p.output, "summary.json")

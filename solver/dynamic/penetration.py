@@ -29,12 +29,12 @@ RAMP = 20.0                  # the ramp's duration in shear-wave crossings of x1
 
 def plan_of(extent, rough, velocity, settlement, body, shear_wave, cohesion) -> dict:
     """The footing of ``extent`` (x0, x1) (m), ``rough`` or not, pushed at ``velocity``
-    (m/s) to ``settlement`` (m) into the ``body`` (size (W, H) (m), cells up, points per
-    cell) of shear-wave speed ``shear_wave`` (m/s); ``cohesion``: c_u (Pa) of a weightless
+    (m/s) to ``settlement`` (m) into the ``body`` (size (W, H) (m), cells (across, up),
+    points per cell) of shear-wave speed ``shear_wave`` (m/s); ``cohesion``: c_u (Pa) of a weightless
     Tresca soil (Prandtl's the reference), else NaN. Returns its extent, interface, speed,
     ramp (s), end settlement, width B (m), the markers' inset and the reference (Pa, its
     name; NaN, '' where none applies). InputError where it does not fit."""
-    (x0, x1), ((W, H), rows, ppc) = extent, body
+    (x0, x1), ((W, H), (cols, rows), ppc) = extent, body
     if not 0 <= x0 < x1 <= W:
         raise InputError(f"-mpm_footing {x0:g},{x1:g}: 0 <= x0 < x1 <= the body's width "
                          f"{W:g} m")
@@ -44,7 +44,8 @@ def plan_of(extent, rough, velocity, settlement, body, shear_wave, cohesion) -> 
     tresca = not math.isnan(cohesion)
     return {"x": (x0, x1), "rough": rough, "velocity": velocity,
             "ramp": RAMP * (x1 - x0) / shear_wave, "settlement": settlement,
-            "width": 2 * x1 if x0 == 0 else x1 - x0, "inset": 0.5 * H / rows / ppc,
+            "width": 2 * x1 if x0 == 0 else x1 - x0,
+            "inset": (0.5 * W / cols / ppc, 0.5 * H / rows / ppc),
             "reference": ((2 + math.pi) * cohesion, "Prandtl (2 + pi) c_u") if tresca
             else (math.nan, "")}
 

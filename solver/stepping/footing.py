@@ -15,6 +15,11 @@ vertical velocity; rough, both. The constraint is exact each step (no penalty, s
 stiffness to shorten the step) and the same on every rank (each has the whole grid's
 sums).
 
+Its sides, where not on the model's axis, are columns of markers half a point outside
+them from the base to the grid's top, which hold the horizontal velocity at zero where
+the soil presses on them and let go where they would pull (without them the heave flowed
+back over the base into the footing's place).
+
 The push ramps up linearly over ``ramp`` seconds, then holds ``velocity``: a sudden start
 would send a compression wave of rho c v into the soil.
 """
@@ -30,9 +35,10 @@ class Footing:
     """The footing from ``x0`` to ``x1`` (m) on a top at ``top`` (m) of ``grid`` (a
     :class:`lattice.Lattice`), ``rough`` or smooth, pushed down at ``velocity`` (m/s)
     after a linear ramp of ``ramp`` (s), to the settlement ``end`` (m); its markers
-    ``inset`` (m) under its base, at the centres of the soil's top row of points."""
+    ``inset`` (x, y) (m) outside its sides and under its base, at the centres of the
+    soil's outer row of points."""
 
-    def __init__(self, grid, x0, x1, top, rough, velocity, ramp, end, inset=0.0):
+    def __init__(self, grid, x0, x1, top, rough, velocity, ramp, end, inset=(0.0, 0.0)):
         self.grid, self.top, self.rough, self.inset = grid, top, rough, inset
         self.width = x1 - x0
         self.x = np.linspace(x0, x1, int(round(self.width / grid.h[0])) + 1)
@@ -64,32 +70,61 @@ class Footing:
         velocities after the step are the footing's; vn the nodal velocities, mass the
         lumped masses (0 where a node has none), held/source/sign the walls'
         (:func:`lattice.walls`)."""
-        level = self.top - self.inset - self.settlement(self.t)
-        nodes, N, _ = lattice.evaluate(self.grid, np.column_stack(
-            [self.x, np.full(len(self.x), level)]))
-        real = source[nodes]                        # ghosts folded onto their mirrors
+        inset_x, inset_y = self.inset
+        level = self.top - inset_y - self.settlement(self.t)
+        base = np.column_stack([self.x, np.full(len(self.x), level)])
+        # The sides, where the footing is not on the axis: markers half a point outside
+        # them from the base to the grid's top, holding the soil out (unilateral).
+        h = self.grid.h[1]
+        y = np.arange(level + 0.5 * h, self.grid.cells[1] * h - 0.5 * h, h)
+        sides, push = [], []
+        for x, out in ((self.x[0] - inset_x, -1.0), (self.x[-1] + inset_x, 1.0)):
+            if 0 < x < self.grid.cells[0] * self.grid.h[0]:
+                sides.append(np.column_stack([np.full(len(y), x), y]))
+                push.append(np.full(len(y), out))
         inverse = np.divide(1.0, mass, out=np.zeros_like(mass), where=mass > 0)
-        used, local = np.unique(real, return_inverse=True)
-        rows = np.repeat(np.arange(len(self.x)), N.shape[1])
-        impulse_y = 0.0
-        for comp, target in ((1, -self.speed(self.t + dt)), (0, 0.0))[:2 if self.rough else 1]:
-            w = N * sign[nodes, comp] * (~held[real, comp]) * (mass[real] > 0)
-            C = np.zeros((len(self.x), len(used)))
-            np.add.at(C, (rows, local.ravel()), w.ravel())
-            m_inv = inverse[used]
-            keep = np.abs(C).sum(axis=1) > 0        # markers that reach a node with mass
-            C = C[keep]
-            gap = target - C @ (vn[used, comp] + dt * a[used, comp])
-            lam = np.linalg.solve((C * m_inv) @ C.T, gap)
-            kick = C.T @ lam                        # the impulse on each node (N s per m)
-            a[used, comp] += m_inv * kick / dt
-            if comp == 1:
-                impulse_y = float(kick.sum())
-        self.force = -impulse_y / dt
+        args = (vn, a, mass, inverse, dt, held, source, sign)
+        self.force = -self._hold(base, 1, -self.speed(self.t + dt), None, *args).sum() / dt
+        across = [base] if self.rough else []
+        push = [np.zeros(len(base))] * self.rough + push
+        if across or sides:
+            self._hold(np.vstack(across + sides), 0, 0.0, np.concatenate(push), *args)
         self.t += dt
+
+    def _hold(self, markers, comp, target, push, vn, a, mass, inverse, dt, held, source,
+              sign):
+        """Make component ``comp`` of the velocity after the step at ``markers`` (n, 2)
+        (m) ``target`` (m/s), correcting a in place over the lumped masses; ``push``
+        (n,): +1 or -1 where a marker may only push the soil that way (those that pull are
+        let go, and the rest solved again), 0 where it holds both ways (None: all).
+        Returns the impulse on each node it moved (N s per m)."""
+        nodes, N, _ = lattice.evaluate(self.grid, markers)
+        real = source[nodes]                        # ghosts folded onto their mirrors
+        used, local = np.unique(real, return_inverse=True)
+        w = N * sign[nodes, comp] * (~held[real, comp]) * (mass[real] > 0)
+        C = np.zeros((len(markers), len(used)))
+        np.add.at(C, (np.repeat(np.arange(len(markers)), N.shape[1]), local.ravel()),
+                  w.ravel())
+        m_inv = inverse[used]
+        free = vn[used, comp] + dt * a[used, comp]
+        on = np.abs(C).sum(axis=1) > 0              # markers that reach a node with mass
+        push = np.zeros(len(markers)) if push is None else push
+        for _ in range(20):
+            Ca = C[on]
+            # Least squares: markers that reach the same few nodes repeat a constraint.
+            lam = np.linalg.lstsq((Ca * m_inv) @ Ca.T, target - Ca @ free, rcond=1e-12)[0] \
+                if len(Ca) else np.zeros(0)
+            pulls = push[on] * lam < 0
+            if not pulls.any():
+                break
+            on[np.flatnonzero(on)[pulls]] = False
+        kick = Ca.T @ lam                           # the impulse on each node (N s per m)
+        a[used, comp] += m_inv * kick / dt
+        return kick
 
     def state(self) -> dict:
         return {"t": self.t, "force": self.force}
 
     def restore(self, state) -> None:
         self.t, self.force = float(state["t"]), float(state["force"])
+
