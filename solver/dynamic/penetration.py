@@ -30,10 +30,11 @@ RAMP = 20.0                  # the ramp's duration in shear-wave crossings of x1
 def plan_of(extent, rough, velocity, settlement, body, shear_wave, cohesion) -> dict:
     """The footing of ``extent`` (x0, x1) (m), ``rough`` or not, pushed at ``velocity``
     (m/s) to ``settlement`` (m) into the ``body`` (size (W, H) (m), cells (across, up),
-    points per cell) of shear-wave speed ``shear_wave`` (m/s); ``cohesion``: c_u (Pa) of a weightless
-    Tresca soil (Prandtl's the reference), else NaN. Returns its extent, interface, speed,
-    ramp (s), end settlement, width B (m), the markers' inset and the reference (Pa, its
-    name; NaN, '' where none applies). InputError where it does not fit."""
+    points per cell) of shear-wave speed ``shear_wave`` (m/s); ``cohesion``: c_u (Pa) of
+    a weightless Tresca soil (Prandtl's the reference), else NaN. Returns its extent,
+    interface, speed, ramp (s), end settlement, width B (m), the markers' inset and the
+    reference (Pa, its name; NaN, '' where none applies). InputError where it does not
+    fit."""
     (x0, x1), ((W, H), (cols, rows), ppc) = extent, body
     if not 0 <= x0 < x1 <= W:
         raise InputError(f"-mpm_footing {x0:g},{x1:g}: 0 <= x0 < x1 <= the body's width "

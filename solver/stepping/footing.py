@@ -83,7 +83,7 @@ class Footing:
                 sides.append(np.column_stack([np.full(len(y), x), y]))
                 push.append(np.full(len(y), out))
         inverse = np.divide(1.0, mass, out=np.zeros_like(mass), where=mass > 0)
-        args = (vn, a, mass, inverse, dt, held, source, sign)
+        args = (vn, a, inverse, dt, held, source, sign)
         self.force = -self._hold(base, 1, -self.speed(self.t + dt), None, *args).sum() / dt
         across = [base] if self.rough else []
         push = [np.zeros(len(base))] * self.rough + push
@@ -91,17 +91,17 @@ class Footing:
             self._hold(np.vstack(across + sides), 0, 0.0, np.concatenate(push), *args)
         self.t += dt
 
-    def _hold(self, markers, comp, target, push, vn, a, mass, inverse, dt, held, source,
-              sign):
+    def _hold(self, markers, comp, target, push, vn, a, inverse, dt, held, source, sign):
         """Make component ``comp`` of the velocity after the step at ``markers`` (n, 2)
-        (m) ``target`` (m/s), correcting a in place over the lumped masses; ``push``
+        (m) ``target`` (m/s), correcting a in place over the lumped masses (``inverse``:
+        their reciprocals, 0 where a node has none); ``push``
         (n,): +1 or -1 where a marker may only push the soil that way (those that pull are
         let go, and the rest solved again), 0 where it holds both ways (None: all).
         Returns the impulse on each node it moved (N s per m)."""
         nodes, N, _ = lattice.evaluate(self.grid, markers)
         real = source[nodes]                        # ghosts folded onto their mirrors
         used, local = np.unique(real, return_inverse=True)
-        w = N * sign[nodes, comp] * (~held[real, comp]) * (mass[real] > 0)
+        w = N * sign[nodes, comp] * (~held[real, comp]) * (inverse[real] > 0)
         C = np.zeros((len(markers), len(used)))
         np.add.at(C, (np.repeat(np.arange(len(markers)), N.shape[1]), local.ravel()),
                   w.ravel())
