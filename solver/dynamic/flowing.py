@@ -81,9 +81,9 @@ class FlowPlan:
     provenance: dict
 
 
-def _grid(size, cells, grid_size, kind) -> lattice.Lattice:
+def _grid(size, cells, grid_size, kind, ppc) -> lattice.Lattice:
     """The background grid of ``kind``'s functions: the body's ``cells`` over its ``size``
-    (m), over ``grid_size`` (m; empty: the body's)."""
+    (m), over ``grid_size`` (m; empty: the body's); uGIMP's points ``ppc`` a cell across."""
     (W, H), h = size, (size[0] / cells[0], size[1] / cells[1])
     extents = tuple(grid_size) or (W, H)
     counts = []
@@ -94,7 +94,7 @@ def _grid(size, cells, grid_size, kind) -> lattice.Lattice:
                              f"least the body's and a whole number of its cells ({step:g} m "
                              f"{'across' if d == 0 else 'up'})")
         counts.append(int(round(n)))
-    return lattice.Lattice(kind, tuple(counts), h)
+    return lattice.Lattice(kind, tuple(counts), h, tuple(0.5 * s / ppc for s in h))
 
 
 def _material(recipe, E, nu):
@@ -151,7 +151,7 @@ def plan_of(p) -> FlowPlan:
     for name in ("rho_s", "porosity"):
         if isinstance(getattr(p, name), tuple):
             raise InputError(f"-mpm_{name}: one value (the flowing body is one soil)")
-    grid = _grid(p.size, p.cells, p.grid_size, p.shape)
+    grid = _grid(p.size, p.cells, p.grid_size, p.shape, p.ppc)
     soil = Soil(E=p.E, nu=p.nu, rho_s=p.rho_s, porosity=p.porosity, rho_l=p.rho_l)
     wave = math.sqrt(constrained_modulus(p.E, p.nu) / soil.density)
     footing = None

@@ -17,6 +17,7 @@ import numpy as np
 from petsc4py import PETSc
 
 from ..io import output
+from ..model import lattice
 from . import penetration
 
 
@@ -31,7 +32,7 @@ def print_plan(plan, model, comm) -> None:
         f"of {type(m).__name__} " + (f"flowing under gravity {plan.gravity:g} m/s2"
                                     if plan.gravity else "without weight") + "\n"
         f"Grid: {g.cells[0]} x {g.cells[1]} cells of {g.h[0]:.4g} x {g.h[1]:.4g} m, "
-        f"{'quadratic B-splines' if g.kind == 'bspline' else 'hat functions'}, "
+        f"{lattice.NAMES[g.kind]}, "
         f"{model.n_global} points ({plan.ppc} x {plan.ppc} per cell), {floor}"
         f"{', F-bar' if plan.fbar else ''}, FLIP {plan.flip:g}"
         f"{'; ' + penetration.describe(plan) if plan.footing else ''}\n"

@@ -268,8 +268,9 @@ SPEC = [
            "the body at its origin, each a whole number of the body's cells (default: the "
            "body)", (DYNAMIC,), checks.all_positive, length=2),
     Option("shape", "str", "bspline", "large: grid functions: bspline (quadratic B-splines, "
-           "smooth forces as points cross cells) or linear (the hat functions of standard "
-           "MPM)", (DYNAMIC,), choices=("linear", "bspline")),
+           "smooth forces as points cross cells), gimp (uGIMP: the hat functions averaged "
+           "over a point's share of its cell, smooth too) or linear (the hat functions of "
+           "standard MPM)", (DYNAMIC,), choices=("linear", "gimp", "bspline")),
     Option("floor_friction", "float", 0.0, "large: Coulomb friction coefficient of the floor "
            "(with -mpm_bc_bottom y; xy holds the floor's points)", (DYNAMIC,),
            checks.nonnegative),

@@ -2,7 +2,7 @@
 large-deformation step, :mod:`solver.stepping.flow`).
 
 The grid: nodes at (i h_x, j h_y) for i = -g .. nx + g, j = -g .. ny + g (g = 1 ghost layer
-for the B-splines, whose functions reach 1.5 cells; 0 for linear), node number
+for the B-splines and uGIMP, whose functions reach beyond a cell; 0 for linear), node number
 (j + g) (nx + 1 + 2 g) + (i + g). A point at x gets, per direction, the functions of the
 nodes whose support holds it:
 
@@ -10,9 +10,15 @@ nodes whose support holds it:
   that jumps where the point crosses a cell: the force a point gives its nodes jumps with
   it (cell-crossing noise);
 - ``bspline``: uniform quadratic B-splines (3 nodes), C1: N = (1/2 - r)^2 / 2, 3/4 - r^2,
-  (1/2 + r)^2 / 2 at r = x / h - the nearest node's index, in [-1/2, 1/2].
+  (1/2 + r)^2 / 2 at r = x / h - the nearest node's index, in [-1/2, 1/2];
+- ``gimp``: uGIMP, the hat functions averaged over the point's undeformed domain (half
+  width l = h / (2 ppc), the lattice's ``lp``; 3 nodes), C1 where the point enters a cell:
+  in cells, at a distance d from the node, 1 - (d^2 + l^2) / (2 l) for d < l, 1 - d to
+  1 - l, (1 + l - d)^2 / (4 l) to 1 + l. The grid's field is the hat functions' (bilinear
+  in each cell), so a slip line is as sharp as a Q4 element's; the B-splines' field is
+  smooth over three cells and spreads it.
 
-Both are partitions of unity that reproduce linear fields (sum N x_a = x; for the
+All three are partitions of unity that reproduce linear fields (sum N x_a = x; for the
 B-splines the nodes are the control points of x), and the 2D functions are tensor
 products. Vectorised over the points: no loop per point.
 """
@@ -23,18 +29,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-KINDS = ("linear", "bspline")
-GHOST = {"linear": 0, "bspline": 1}
+KINDS = ("linear", "gimp", "bspline")
+GHOST = {"linear": 0, "gimp": 1, "bspline": 1}
+NAMES = {"linear": "hat functions", "gimp": "uGIMP", "bspline": "quadratic B-splines"}
 
 
 @dataclass(frozen=True)
 class Lattice:
     """The uniform grid of ``cells`` (nx, ny) cells of ``h`` (hx, hy) m from the origin,
-    with ``kind``'s ghost layer around it."""
+    with ``kind``'s ghost layer around it; ``lp`` (x, y) (m): the points' half widths
+    (uGIMP's; at most half a cell)."""
 
     kind: str
     cells: tuple
     h: tuple
+    lp: tuple = (0.0, 0.0)
+
+    def __post_init__(self):
+        if self.kind == "gimp" and not all(0 < l <= 0.5 * h for l, h in zip(self.lp, self.h)):
+            raise ValueError(f"uGIMP needs half widths in (0, h / 2], not {self.lp}")
 
     @property
     def ghost(self) -> int:
@@ -76,17 +89,35 @@ def _bspline(u):
     return c - 1, N, dN
 
 
+def _gimp(u, l):
+    """1D uGIMP functions at u = x / h of a point of half width l (cells, 0 < l <= 1/2):
+    (first node index, N (np, 3), dN/du)."""
+    c = np.floor(u + 0.5).astype(np.int64)        # the nearest node
+    z = (u - c)[:, None] - np.array([-1.0, 0.0, 1.0])[None, :]   # from each node (cells)
+    d = np.abs(z)
+    inner, outer = d < l, d > 1 - l
+    N = np.where(inner, 1 - (d * d + l * l) / (2 * l),
+                 np.where(outer, np.maximum(1 + l - d, 0.0) ** 2 / (4 * l), 1 - d))
+    slope = np.where(inner, -d / l, np.where(outer, -np.maximum(1 + l - d, 0.0) / (2 * l),
+                                             -1.0))
+    return c - 1, N, slope * np.sign(z)
+
+
 _ONE_D = {"linear": _linear, "bspline": _bspline}
 
 
 def evaluate(lattice: Lattice, x) -> tuple:
     """(nodes (np, m), N (np, m), grad N (np, m, 2) in 1/m) of the points at x (np, 2) (m),
-    m = 4 (linear) or 9 (B-splines); nodes are numbered as the module docstring says.
-    Points must lie inside the grid (their supports inside its ghosts)."""
+    m = 4 (linear) or 9 (uGIMP, B-splines); nodes are numbered as the module docstring
+    says. Points must lie inside the grid (their supports inside its ghosts)."""
     x = np.asarray(x, dtype=float)
-    one = _ONE_D[lattice.kind]
-    ix, Nx, dNx = one(x[:, 0] / lattice.h[0])
-    iy, Ny, dNy = one(x[:, 1] / lattice.h[1])
+    if lattice.kind == "gimp":
+        ix, Nx, dNx = _gimp(x[:, 0] / lattice.h[0], lattice.lp[0] / lattice.h[0])
+        iy, Ny, dNy = _gimp(x[:, 1] / lattice.h[1], lattice.lp[1] / lattice.h[1])
+    else:
+        one = _ONE_D[lattice.kind]
+        ix, Nx, dNx = one(x[:, 0] / lattice.h[0])
+        iy, Ny, dNy = one(x[:, 1] / lattice.h[1])
     k = Nx.shape[1]
     g, nxn = lattice.ghost, lattice.shape[0]
     # Tensor products, x fastest: entry a = b k + c takes x function c and y function b.

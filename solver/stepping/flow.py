@@ -106,10 +106,11 @@ class Flow:
         return f * np.sqrt(mean / det)[:, None, None]
 
     def _args(self) -> tuple:
-        """The grid's data the transfers take: (functions per direction, ghost layers, the
-        cell sizes (m), nodes per row)."""
+        """The grid's data the transfers take: (the functions' form, uGIMP's half widths in
+        cells, ghost layers, the cell sizes (m), nodes per row)."""
         lat = self.grid
-        return (3 if lat.kind == "bspline" else 2, lat.ghost, np.asarray(lat.h, dtype=float),
+        h = np.asarray(lat.h, dtype=float)
+        return (lattice.KINDS.index(lat.kind), np.asarray(lat.lp) / h, lat.ghost, h,
                 lat.shape[0])
 
     def _left(self, p: int) -> None:

@@ -1,7 +1,7 @@
 """Compiled transfers of the large-deformation step (:mod:`solver.stepping.flow`) between
 its points and the uniform background grid of :mod:`solver.model.lattice` (numba,
 nopython, cached on disk): one pass over the points each way, with each point's grid
-functions computed on the fly (hat functions, k = 2 per direction, or quadratic
+functions computed on the fly (hat functions, k = 2 per direction; uGIMP or quadratic
 B-splines, k = 3) as :func:`solver.model.lattice.evaluate` gives them; tests/test_flow.py
 holds these kernels to that NumPy reference.
 
@@ -22,10 +22,11 @@ NS = 5        # the nodal sums: mass, momentum (x, y), internal force (x, y)
 
 
 @_jit
-def _weights(u, k, N, dN):
-    """The 1D functions at u = x / h (in cells) into N, dN (length k; dN per cell) and the
-    index of the first node: hat functions for k = 2, quadratic B-splines for k = 3."""
-    if k == 2:
+def _weights(u, form, l, N, dN):
+    """The 1D functions of ``form`` (the index in lattice.KINDS: 0 hat functions, 1 uGIMP
+    of half width l cells, 2 quadratic B-splines) at u = x / h (in cells) into N, dN (dN
+    per cell); returns the index of the first node."""
+    if form == 0:
         i = np.int64(np.floor(u))
         s = u - i
         N[0], N[1] = 1.0 - s, s
@@ -33,16 +34,30 @@ def _weights(u, k, N, dN):
         return i
     c = np.int64(np.floor(u + 0.5))
     r = u - c
-    N[0], N[1], N[2] = 0.5 * (0.5 - r) ** 2, 0.75 - r * r, 0.5 * (0.5 + r) ** 2
-    dN[0], dN[1], dN[2] = r - 0.5, -2.0 * r, r + 0.5
+    if form == 2:
+        N[0], N[1], N[2] = 0.5 * (0.5 - r) ** 2, 0.75 - r * r, 0.5 * (0.5 + r) ** 2
+        dN[0], dN[1], dN[2] = r - 0.5, -2.0 * r, r + 0.5
+        return c - 1
+    for j in range(3):
+        z = r + 1.0 - j                     # from node c - 1 + j (cells)
+        d = abs(z)
+        sign = 1.0 if z > 0 else (-1.0 if z < 0 else 0.0)
+        if d < l:
+            N[j], dN[j] = 1.0 - (d * d + l * l) / (2.0 * l), -z / l
+        elif d <= 1.0 - l:
+            N[j], dN[j] = 1.0 - d, -sign
+        elif d < 1.0 + l:
+            N[j], dN[j] = (1.0 + l - d) ** 2 / (4.0 * l), -sign * (1.0 + l - d) / (2.0 * l)
+        else:
+            N[j], dN[j] = 0.0, 0.0
     return c - 1
 
 
 @_jit
-def _point(x, p, k, ghost, h, Nx, dNx, Ny, dNy):
+def _point(x, p, form, l, ghost, h, Nx, dNx, Ny, dNy):
     """Point p's functions into Nx, dNx, Ny, dNy and the (column, row) of its first node."""
-    return (_weights(x[p, 0] / h[0], k, Nx, dNx) + ghost,
-            _weights(x[p, 1] / h[1], k, Ny, dNy) + ghost)
+    return (_weights(x[p, 0] / h[0], form, l[0], Nx, dNx) + ghost,
+            _weights(x[p, 1] / h[1], form, l[1], Ny, dNy) + ghost)
 
 
 @_jit
@@ -52,19 +67,21 @@ def _node(b, c, h, Nx, dNx, Ny, dNy):
 
 
 @_jit
-def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, extent, sums):
+def points_to_grid(x, v, m, V, sigma, form, l, ghost, h, nxn, extent, sums):
     """Add the points' masses m (kg per m), momenta m v and internal forces -V sigma grad N
     (N per m) into ``sums`` (n_nodes, NS), zeroed here: x, v (np, 2) (m, m/s), the
     current volumes V (np,) (m2), the Cauchy stresses sigma (np, 4) (xx, yy, zz, xy; Pa),
-    ``k`` functions per direction on cells ``h`` (2,) (m), ``ghost`` layers, ``nxn`` nodes
-    per row. Returns -1, or the first point outside the grid [0, extent] (its nodes
-    would lie beyond the arrays: nothing more is added)."""
+    the functions ``form`` (:func:`_weights`; uGIMP's half widths ``l`` (2,) in cells) on
+    cells ``h`` (2,) (m), ``ghost`` layers, ``nxn`` nodes per row. Returns -1, or the
+    first point outside the grid [0, extent] (its nodes would lie beyond the arrays:
+    nothing more is added)."""
     sums[:] = 0.0
     Nx, dNx, Ny, dNy = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    k = 2 if form == 0 else 3
     for p in range(x.shape[0]):
         if not (0.0 <= x[p, 0] <= extent[0] and 0.0 <= x[p, 1] <= extent[1]):
             return p
-        ix, iy = _point(x, p, k, ghost, h, Nx, dNx, Ny, dNy)
+        ix, iy = _point(x, p, form, l, ghost, h, Nx, dNx, Ny, dNy)
         mp, vx, vy = m[p], v[p, 0], v[p, 1]
         sxx, syy, sxy, Vp = sigma[p, 0], sigma[p, 1], sigma[p, 3], V[p]
         for b in range(k):
@@ -81,13 +98,14 @@ def points_to_grid(x, v, m, V, sigma, k, ghost, h, nxn, extent, sums):
 
 
 @_jit
-def grid_to_points(x, a, vnew, k, ghost, h, nxn, ap, vp, L):
+def grid_to_points(x, a, vnew, form, l, ghost, h, nxn, ap, vp, L):
     """The points' interpolated nodal accelerations ``ap`` and new velocities ``vp`` (np, 2)
     and velocity gradients ``L`` = sum vnew (x) grad N (np, 2, 2) (1/s), written here, from
     the nodal a and vnew (n_nodes, 2) at the points' positions x (np, 2) (m)."""
     Nx, dNx, Ny, dNy = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    k = 2 if form == 0 else 3
     for p in range(x.shape[0]):
-        ix, iy = _point(x, p, k, ghost, h, Nx, dNx, Ny, dNy)
+        ix, iy = _point(x, p, form, l, ghost, h, Nx, dNx, Ny, dNy)
         s0 = s1 = s2 = s3 = 0.0
         l00 = l01 = l10 = l11 = 0.0
         for b in range(k):
