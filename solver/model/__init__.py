@@ -9,7 +9,7 @@ functions, and the matrices assembled over them.
 - ``soil``: the soil (Soil, Ground): its constituents and what follows from them;
 - ``motion``: base motions: the Ricker wavelet, a sine, a record, as functions of time;
 - ``lattice``: the uniform grid of points that flow across its cells (large
-  deformation): hat functions and quadratic B-splines, and its walls.
+  deformation): hat functions, uGIMP and quadratic B-splines, and its walls.
 
 May import: common.
 
