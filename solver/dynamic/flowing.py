@@ -171,7 +171,8 @@ def plan_of(p) -> FlowPlan:
         size=tuple(p.size), cells=tuple(p.cells), ppc=p.ppc, grid=grid,
         density=soil.density, material=material, wave=wave, walls=walls,
         friction=p.floor_friction, gravity=p.gravity, fbar=p.bbar,
-        flip=0.99 if p.flip == "auto" else float(p.flip), damping=p.damping,
+        flip=_flip(p.flip, p.pic_viscosity, "flip" in p.given,
+                   p.dt_safety * min(grid.h) / wave, min(grid.h)), damping=p.damping,
         dt=p.dt_safety * min(grid.h) / wave,
         t_end=penetration.duration(grid, tuple(p.size), footing) if footing else p.t_end,
         rest_energy=0.0 if footing else p.rest_energy,
@@ -181,6 +182,26 @@ def plan_of(p) -> FlowPlan:
         restart=p.restart, overwrite=p.overwrite,
         run={"id": None, "options": checkpoint.recorded(options), "given": sorted(given)},
         signature=checkpoint.signature(p), provenance=options)
+
+
+def _flip(flip, nu, flip_given, dt, h) -> float:
+    """The FLIP share of each step: ``flip`` (-mpm_flip; auto: 0.99), or from the PIC
+    viscosity ``nu`` (m2/s; -mpm_pic_viscosity, 0: none) the PIC share nu dt / h^2 of steps
+    dt (s) on cells of the smaller side h (m); InputError where both are given. Why a
+    viscosity: the PIC share damps what the grid does not resolve as a viscosity
+    (1 - FLIP) h^2 / dt, in proportion to the cell where the share per step is held; held
+    as nu, every grid dissipates alike and a run converges under refinement to one
+    solution."""
+    if not nu:
+        return 0.99 if flip == "auto" else float(flip)
+    if flip_given:
+        raise InputError("-mpm_flip, -mpm_pic_viscosity: give one (the PIC share per step, "
+                         "or as a viscosity)")
+    share = nu * dt / (h * h)
+    if share > 1:
+        raise InputError(f"-mpm_pic_viscosity {nu:g}: a PIC share of {share:.3g} a step on "
+                         f"these cells (dt {dt:.3g} s, h {h:g} m); at most 1")
+    return 1.0 - share
 
 
 def run(plan: FlowPlan, comm) -> int:

@@ -34,7 +34,7 @@ def print_plan(plan, model, comm) -> None:
         f"Grid: {g.cells[0]} x {g.cells[1]} cells of {g.h[0]:.4g} x {g.h[1]:.4g} m, "
         f"{lattice.NAMES[g.kind]}, "
         f"{model.n_global} points ({plan.ppc} x {plan.ppc} per cell), {floor}"
-        f"{', F-bar' if plan.fbar else ''}, FLIP {plan.flip:g}"
+        f"{', F-bar' if plan.fbar else ''}, FLIP {plan.flip:.6g}"
         f"{'; ' + penetration.describe(plan) if plan.footing else ''}\n"
         f"Steps: at most {model.nsteps} of {model.dt:.4g} s (h / c at c = {plan.wave:.4g} "
         f"m/s x {plan.dt * plan.wave / min(g.h):g}) to {plan.t_end:.4g} s"
@@ -47,7 +47,7 @@ def keys(plan, model) -> dict:
     g = plan.grid
     return {"kinematics": "large", "shape": g.kind, "grid_cells": list(g.cells),
             "cell_size_m": list(g.h), "points": model.n_global, "dt_s": model.dt,
-            "t_end_s": plan.t_end, "rest_energy": plan.rest_energy,
+            "flip": plan.flip, "t_end_s": plan.t_end, "rest_energy": plan.rest_energy,
             "mass_initial_kg": model.mass}
 
 

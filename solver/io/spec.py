@@ -271,6 +271,11 @@ SPEC = [
            "smooth forces as points cross cells), gimp (uGIMP: the hat functions averaged "
            "over a point's share of its cell, smooth too) or linear (the hat functions of "
            "standard MPM)", (DYNAMIC,), choices=("linear", "gimp", "bspline")),
+    Option("pic_viscosity", "float", 0.0, "large: the PIC share as a viscosity nu (m2/s): "
+           "each step blends nu dt / h^2 of the grid's velocity into the points' (h the "
+           "smaller cell side), the same dissipation on every grid, where -mpm_flip's share "
+           "per step dissipates in proportion to the cell; 0: -mpm_flip", (DYNAMIC,),
+           checks.nonnegative),
     Option("floor_friction", "float", 0.0, "large: Coulomb friction coefficient of the floor "
            "(with -mpm_bc_bottom y; xy holds the floor's points)", (DYNAMIC,),
            checks.nonnegative),
@@ -351,7 +356,8 @@ SPEC = [
 
 # The options the dynamic analysis reads with -mpm_kinematics large only, and those it does
 # not read with it (the shaken or suddenly loaded body's, and what the flowing body lacks).
-FLOWING_ONLY = ("gravity", "dt_safety", "damping", "flip", "bbar", "grid_size", "shape",
+FLOWING_ONLY = ("gravity", "dt_safety", "damping", "flip", "pic_viscosity", "bbar",
+                "grid_size", "shape",
                 "floor_friction", "rest_energy", "experiment", "cohesion",
                 "friction_angle", "dilation_angle", "tension_cutoff", "bc_left", "bc_right",
                 "bc_bottom", "bc_top", "footing", "footing_interface", "footing_settlement",
