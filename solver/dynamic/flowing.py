@@ -164,6 +164,7 @@ def plan_of(p) -> FlowPlan:
             p.footing_settlement, (tuple(p.size), tuple(p.cells), p.ppc),
             math.sqrt(p.E / (2 * (1 + p.nu)) / soil.density),
             p.cohesion if p.material == "tresca" and p.gravity == 0 else math.nan)
+    dt = p.dt_safety * min(grid.h) / wave
     summary = p.summary or os.path.join(p.output, "summary.json")
     options = provenance.options(p)
     given = set(p.given) | set(given_at_start(p.restart))
@@ -171,9 +172,8 @@ def plan_of(p) -> FlowPlan:
         size=tuple(p.size), cells=tuple(p.cells), ppc=p.ppc, grid=grid,
         density=soil.density, material=material, wave=wave, walls=walls,
         friction=p.floor_friction, gravity=p.gravity, fbar=p.bbar,
-        flip=_flip(p.flip, p.pic_viscosity, "flip" in p.given,
-                   p.dt_safety * min(grid.h) / wave, min(grid.h)), damping=p.damping,
-        dt=p.dt_safety * min(grid.h) / wave,
+        flip=_flip(p.flip, p.pic_viscosity, "flip" in p.given, dt, min(grid.h)),
+        damping=p.damping, dt=dt,
         t_end=penetration.duration(grid, tuple(p.size), footing) if footing else p.t_end,
         rest_energy=0.0 if footing else p.rest_energy,
         experiment=_experiment(p.experiment, tuple(p.size), recipe), footing=footing,

@@ -71,8 +71,9 @@ class Lattice:
         return np.stack([X.ravel(), Y.ravel()], axis=1)
 
 
-def _linear(u):
-    """1D hat functions at u = x / h: (first node index (np,), N (np, 2), dN/du (np, 2))."""
+def _linear(u, l=0.0):
+    """1D hat functions at u = x / h: (first node index (np,), N (np, 2), dN/du (np, 2));
+    ``l``, a point's half width, does not enter them."""
     i = np.floor(u).astype(np.int64)
     s = u - i
     N = np.stack([1 - s, s], axis=1)
@@ -80,8 +81,9 @@ def _linear(u):
     return i, N, dN
 
 
-def _bspline(u):
-    """1D quadratic B-splines at u = x / h: (first node index (np,), N (np, 3), dN/du)."""
+def _bspline(u, l=0.0):
+    """1D quadratic B-splines at u = x / h: (first node index (np,), N (np, 3), dN/du);
+    ``l``, a point's half width, does not enter them."""
     c = np.floor(u + 0.5).astype(np.int64)        # the nearest node
     r = u - c
     N = np.stack([0.5 * (0.5 - r) ** 2, 0.75 - r * r, 0.5 * (0.5 + r) ** 2], axis=1)
@@ -103,7 +105,7 @@ def _gimp(u, l):
     return c - 1, N, slope * np.sign(z)
 
 
-_ONE_D = {"linear": _linear, "bspline": _bspline}
+_ONE_D = {"linear": _linear, "gimp": _gimp, "bspline": _bspline}
 
 
 def evaluate(lattice: Lattice, x) -> tuple:
@@ -111,13 +113,9 @@ def evaluate(lattice: Lattice, x) -> tuple:
     m = 4 (linear) or 9 (uGIMP, B-splines); nodes are numbered as the module docstring
     says. Points must lie inside the grid (their supports inside its ghosts)."""
     x = np.asarray(x, dtype=float)
-    if lattice.kind == "gimp":
-        ix, Nx, dNx = _gimp(x[:, 0] / lattice.h[0], lattice.lp[0] / lattice.h[0])
-        iy, Ny, dNy = _gimp(x[:, 1] / lattice.h[1], lattice.lp[1] / lattice.h[1])
-    else:
-        one = _ONE_D[lattice.kind]
-        ix, Nx, dNx = one(x[:, 0] / lattice.h[0])
-        iy, Ny, dNy = one(x[:, 1] / lattice.h[1])
+    one, (hx, hy), (lx, ly) = _ONE_D[lattice.kind], lattice.h, lattice.lp
+    ix, Nx, dNx = one(x[:, 0] / hx, lx / hx)
+    iy, Ny, dNy = one(x[:, 1] / hy, ly / hy)
     k = Nx.shape[1]
     g, nxn = lattice.ghost, lattice.shape[0]
     # Tensor products, x fastest: entry a = b k + c takes x function c and y function b.

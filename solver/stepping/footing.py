@@ -94,9 +94,9 @@ class Footing:
     def _hold(self, markers, comp, target, push, vn, a, inverse, dt, held, source, sign):
         """Make component ``comp`` of the velocity after the step at ``markers`` (n, 2)
         (m) ``target`` (m/s), correcting a in place over the lumped masses (``inverse``:
-        their reciprocals, 0 where a node has none); ``push``
-        (n,): +1 or -1 where a marker may only push the soil that way (those that pull are
-        let go, and the rest solved again), 0 where it holds both ways (None: all).
+        their reciprocals, 0 where a node has none); ``push`` (n,): +1 or -1 where a
+        marker may only push the soil that way (those that pull are let go, and the rest
+        solved again), 0 where it holds both ways (None: all).
         Returns the impulse on each node it moved (N s per m)."""
         nodes, N, _ = lattice.evaluate(self.grid, markers)
         real = source[nodes]                        # ghosts folded onto their mirrors
@@ -127,4 +127,3 @@ class Footing:
 
     def restore(self, state) -> None:
         self.t, self.force = float(state["t"]), float(state["force"])
-
