@@ -7,10 +7,12 @@ Each step (update stress last, FLIP with a share of PIC):
 1. points to grid: masses m_a = sum N m_p, momenta sum N m_p v_p, forces
    f_a = -sum V_p sigma_p grad N + sum N m_p g, with the current volume V_p = J_p V_p0;
 2. the nodes: v_a = momentum / m_a, local damping of the force against v_a
-   (-alpha |f| sign v, which vanishes at rest), a_a = f_a / m_a, held components zero on
-   the walls and the floor, a footing's constraint (:mod:`solver.stepping.footing`), the
-   ghost nodes beyond the walls mirroring the nodes inside (:func:`lattice.walls`),
-   v_a' = v_a + dt a_a; nodes without mass are left out;
+   (-alpha |f| sign v, which vanishes at rest), a_a = f_a / m_a, held components brought
+   to rest on the walls and the floor (a_a = -v_a / dt: the wall takes their momentum,
+   and FLIP hands that change to the points as it does every node's), a footing's
+   constraint (:mod:`solver.stepping.footing`), the ghost nodes beyond the walls
+   mirroring the nodes inside (:func:`lattice.walls`), v_a' = v_a + dt a_a; nodes
+   without mass are left out;
 3. grid to points: v_p <- flip (v_p + dt sum N a) + (1 - flip) sum N v', x_p += dt sum N v',
    the velocity gradient L = sum v' (x) grad N, the incremental deformation gradient
    f = (I - dt L / 2)^-1 (I + dt L / 2) (:func:`increment`), with F-bar over cells if
@@ -152,8 +154,11 @@ class Flow:
         a = force * inv
         if self.friction:
             self._floor_friction(vn, a, dt, beside, mass)
-        a[self.held] = 0.0
-        vn[self.held] = 0.0
+        # The walls stop their held components within the step. Zeroing a there as well
+        # as v would leave the points the momentum they carried into the wall (FLIP adds
+        # only sum N a), and the body would move otherwise than its points' momenta say
+        # (tests/test_flow.py).
+        a[self.held] = -vn[self.held] / dt
         if self.footing is not None:
             self.footing.constrain(vn, a, np.where(active, mass, 0.0), dt, self.held,
                                    self.source, self.sign)
