@@ -357,11 +357,10 @@ SPEC = [
 # The options the dynamic analysis reads with -mpm_kinematics large only, and those it does
 # not read with it (the shaken or suddenly loaded body's, and what the flowing body lacks).
 FLOWING_ONLY = ("gravity", "dt_safety", "damping", "flip", "pic_viscosity", "bbar",
-                "grid_size", "shape",
-                "floor_friction", "rest_energy", "experiment", "cohesion",
-                "friction_angle", "dilation_angle", "tension_cutoff", "bc_left", "bc_right",
-                "bc_bottom", "bc_top", "footing", "footing_interface", "footing_settlement",
-                "footing_velocity")
+                "grid_size", "shape", "floor_friction", "rest_energy", "experiment",
+                "cohesion", "friction_angle", "dilation_angle", "tension_cutoff", "bc_left",
+                "bc_right", "bc_bottom", "bc_top", "footing", "footing_interface",
+                "footing_settlement", "footing_velocity")
 NOT_FLOWING = ("phases", "base_motion", "base_motion_scale", "base_direction", "base",
                "rock_Vs", "rock_Vp", "rock_rho", "bc_sides", "rayleigh", "record_depths",
                "record_dt", "load", "load_extent", "layers", "K_l", "mu_l", "k", "drained",
