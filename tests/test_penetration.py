@@ -35,8 +35,7 @@ def curve(path):
 def test_the_plateau_comes_down_to_prandtl_under_refinement(cli, tmp_path):
     """The mean pressure at 2.5 to 5 cm of settlement lies above Prandtl's (the base's
     constraint holds the soil stiffly: docs/method.md) and comes down to it as the cells halve:
-    +21.0 % on 0.125 m cells, +12.7 % on 0.0625 m (measured; +7.7 % on 0.03125 m, the
-    order about 0.7: docs/studies.md)."""
+    +13.9 % on 0.125 m cells, +9.8 % on 0.0625 m (measured; the rest: docs/studies.md)."""
     errors = []
     for cells in ("32,16", "64,32"):
         out = tmp_path / cells.replace(",", "x")
@@ -52,7 +51,7 @@ def test_the_plateau_comes_down_to_prandtl_under_refinement(cli, tmp_path):
         assert f["plateau_pa"] == pytest.approx(rows[inside, 1].mean(), rel=1e-12)
         errors.append(f["plateau_pa"] / PRANDTL - 1)
     coarse, fine = errors
-    assert 0 < fine < 0.7 * coarse and fine < 0.15, errors
+    assert 0 < fine < 0.75 * coarse and fine < 0.11, errors
 
 
 def _pushed(fbar: bool, rough: bool = False):

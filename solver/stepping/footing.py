@@ -1,15 +1,21 @@
 """A rigid strip footing pushed into the flowing body (:class:`solver.stepping.flow.Flow`) at
 a prescribed velocity: its base a kinematic constraint on the grid's new velocities.
 
-The base is a row of markers, one per cell width from x0 to x1, at the centres of the top
-row of points under it (half a point's height under the base: at the base itself the
-pressure rose by 7 % each time the base crossed half a cell, at every cell size measured,
-and stayed there; at the points' centres the curve is smooth and the same as after that
-jump). Each step, once the nodes' trial velocities v' = v + dt a are known, the markers'
+The base is a row of markers, one in the middle of each cell width from x0 to x1, at the
+centres of the top row of points under it (half a point's height under the base: at the
+base itself the pressure rose by 7 % each time the base crossed half a cell, at every cell
+size measured, and stayed there; at the points' centres the curve is smooth and the same
+as after that jump). A marker in the middle of a cell width holds the mean of that
+width's two node columns (1/2 each, with every function here), the contact over the cell
+in one number, and none reaches past the edge; markers on the node columns instead put
+the edge's on the edge, where it held the column beyond it (1/8, B-splines) and with it
+the soil beside the footing: 21 % over Prandtl's on 0.125 m cells against 14 %.
+
+Each step, once the nodes' trial velocities v' = v + dt a are known, the markers'
 interpolated velocities are made the footing's: v' <- v' + M^-1 C^T lambda, C the
 markers' shape functions over the nodes (the walls' ghosts folded onto the nodes they
 mirror), M the lumped masses, lambda from (C M^-1 C^T) lambda = v_footing - C v' (a
-marker per column of nodes: the system is small and well conditioned). The impulse
+marker per cell width: the system is small and well conditioned). The impulse
 C^T lambda over dt is the footing's force on the soil: smooth, the markers hold the
 vertical velocity; rough, both. The constraint is exact each step (no penalty, so no
 stiffness to shorten the step) and the same on every rank (each has the whole grid's
@@ -40,8 +46,9 @@ class Footing:
 
     def __init__(self, grid, x0, x1, top, rough, velocity, ramp, end, inset=(0.0, 0.0)):
         self.grid, self.top, self.rough, self.inset = grid, top, rough, inset
-        self.width = x1 - x0
-        self.x = np.linspace(x0, x1, int(round(self.width / grid.h[0])) + 1)
+        self.width, self.edges = x1 - x0, (x0, x1)
+        widths = int(round(self.width / grid.h[0]))
+        self.x = x0 + (np.arange(widths) + 0.5) * (self.width / widths)
         self.velocity, self.ramp, self.end = velocity, ramp, end
         self.t = 0.0
         self.force = 0.0            # on the soil, downwards positive (N per m), this step
@@ -78,7 +85,7 @@ class Footing:
         h = self.grid.h[1]
         y = np.arange(level + 0.5 * h, self.grid.cells[1] * h - 0.5 * h, h)
         sides, push = [], []
-        for x, out in ((self.x[0] - inset_x, -1.0), (self.x[-1] + inset_x, 1.0)):
+        for x, out in ((self.edges[0] - inset_x, -1.0), (self.edges[1] + inset_x, 1.0)):
             if 0 < x < self.grid.cells[0] * self.grid.h[0]:
                 sides.append(np.column_stack([np.full(len(y), x), y]))
                 push.append(np.full(len(y), out))
