@@ -35,7 +35,7 @@ def curve(path):
 def test_the_plateau_comes_down_to_prandtl_under_refinement(cli, tmp_path):
     """The mean pressure at 2.5 to 5 cm of settlement lies above Prandtl's (the base's
     constraint holds the soil stiffly: docs/method.md) and comes down to it as the cells halve:
-    +13.9 % on 0.125 m cells, +9.8 % on 0.0625 m (measured; the rest: docs/studies.md)."""
+    +14.7 % on 0.125 m cells, +9.9 % on 0.0625 m (measured; the rest: docs/studies.md)."""
     errors = []
     for cells in ("32,16", "64,32"):
         out = tmp_path / cells.replace(",", "x")
@@ -51,7 +51,28 @@ def test_the_plateau_comes_down_to_prandtl_under_refinement(cli, tmp_path):
         assert f["plateau_pa"] == pytest.approx(rows[inside, 1].mean(), rel=1e-12)
         errors.append(f["plateau_pa"] / PRANDTL - 1)
     coarse, fine = errors
-    assert 0 < fine < 0.75 * coarse and fine < 0.11, errors
+    assert 0 < fine < 0.7 * coarse and fine < 0.12, errors
+
+
+@pytest.mark.parametrize("kind", ["bspline", "gimp", "linear"])
+def test_the_base_holds_every_column_under_it_and_none_beyond(kind):
+    """The base's markers reach each node column from one edge of the footing to the other
+    (none left free to alternate) and none beyond an edge inside the grid, where a marker
+    would hold the soil beside the footing; on the grid's side (the model's axis) the
+    mirrored column lies under the footing."""
+    h = 0.125
+    grid = lattice.Lattice(kind, (32, 20), (h, h), (h / 4, h / 4))
+    columns = grid.positions()[:, 0]
+    for x0, x1 in ((0.0, 0.5), (1.0, 1.5), (3.5, 4.0)):
+        footing = Footing(grid, x0, x1, 2.0, False, 0.05, 0.1, 1.0)
+        nodes, N, _ = lattice.evaluate(grid, np.column_stack(
+            [footing.x, np.full(len(footing.x), 1.9)]))
+        reached = np.unique(np.round(columns[nodes[N > 1e-12]] / h).astype(int))
+        inside = np.arange(round(x0 / h), round(x1 / h) + 1)
+        ghosts = kind != "linear"                 # functions wider than a cell
+        left = [-1] if x0 == 0 and ghosts else []
+        right = [33] if x1 == 4 and ghosts else []
+        assert reached.tolist() == left + inside.tolist() + right, (kind, x0, reached)
 
 
 def _pushed(fbar: bool, rough: bool = False):
@@ -78,8 +99,8 @@ def _pushed(fbar: bool, rough: bool = False):
 def test_the_pressure_field_has_no_checkerboard(fbar):
     """Tresca's plastic flow keeps the volume: without F-bar the points' volume changes lock
     into a checkerboard, point to point (each cell's four points spread by twice the mean
-    pressure) and cell to cell (the alternating part of the cells' pressures 0.29 of their
-    smooth part under the footing); F-bar over cells takes both out (0 and 0.06)."""
+    pressure) and cell to cell (the alternating part of the cells' pressures 0.31 of their
+    smooth part under the footing); F-bar over cells takes both out (0 and 0.065)."""
     p, cell, nx, ny, _ = _pushed(fbar)
     field = np.zeros((ny, nx))
     np.add.at(field, (cell[:, 1], cell[:, 0]), p / 4)       # 2 x 2 points a cell

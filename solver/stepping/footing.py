@@ -1,21 +1,23 @@
 """A rigid strip footing pushed into the flowing body (:class:`solver.stepping.flow.Flow`) at
 a prescribed velocity: its base a kinematic constraint on the grid's new velocities.
 
-The base is a row of markers, one in the middle of each cell width from x0 to x1, at the
-centres of the top row of points under it (half a point's height under the base: at the
-base itself the pressure rose by 7 % each time the base crossed half a cell, at every cell
-size measured, and stayed there; at the points' centres the curve is smooth and the same
-as after that jump). A marker in the middle of a cell width holds the mean of that
-width's two node columns (1/2 each, with every function here), the contact over the cell
-in one number, and none reaches past the edge; markers on the node columns instead put
-the edge's on the edge, where it held the column beyond it (1/8, B-splines) and with it
-the soil beside the footing: 21 % over Prandtl's on 0.125 m cells against 14 %.
+The base is a row of markers at the centres of the top row of points under it (half a
+point's height under the base: at the base itself the pressure rose by 7 % each time the
+base crossed half a cell, at every cell size measured, and stayed there; at the points'
+centres the curve is smooth and the same as after that jump), one on each node column
+between the edges and one half a cell inside each edge (on the edge where that is the
+grid's side, the model's axis). There it holds the mean of the edge's two columns (1/2 each, with every function here) and reaches nothing
+beyond the edge; a marker on the edge held the column beyond it too (1/8, B-splines),
+and with it the soil beside the footing: the plateau 21 % over Prandtl's on 0.125 m cells
+against 15 %. Markers in the middle of every cell width would hold only the cells' means
+and leave the columns free to alternate (a checkerboard under the base half as large
+again).
 
 Each step, once the nodes' trial velocities v' = v + dt a are known, the markers'
 interpolated velocities are made the footing's: v' <- v' + M^-1 C^T lambda, C the
 markers' shape functions over the nodes (the walls' ghosts folded onto the nodes they
 mirror), M the lumped masses, lambda from (C M^-1 C^T) lambda = v_footing - C v' (a
-marker per cell width: the system is small and well conditioned). The impulse
+marker per column of nodes: the system is small and well conditioned). The impulse
 C^T lambda over dt is the footing's force on the soil: smooth, the markers hold the
 vertical velocity; rough, both. The constraint is exact each step (no penalty, so no
 stiffness to shorten the step) and the same on every rank (each has the whole grid's
@@ -48,7 +50,12 @@ class Footing:
         self.grid, self.top, self.rough, self.inset = grid, top, rough, inset
         self.width, self.edges = x1 - x0, (x0, x1)
         widths = int(round(self.width / grid.h[0]))
-        self.x = x0 + (np.arange(widths) + 0.5) * (self.width / widths)
+        step, span = self.width / widths, grid.cells[0] * grid.h[0]
+        # An edge on the grid's side keeps its column's marker (the mirror there holds
+        # nothing beyond it); an edge inside the grid has its marker half a cell in.
+        self.x = np.concatenate([[x0 if x0 <= 0 else x0 + 0.5 * step],
+                                 x0 + step * np.arange(1, widths),
+                                 [x1 if x1 >= span else x1 - 0.5 * step]])
         self.velocity, self.ramp, self.end = velocity, ramp, end
         self.t = 0.0
         self.force = 0.0            # on the soil, downwards positive (N per m), this step
