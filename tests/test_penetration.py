@@ -98,7 +98,7 @@ def _pushed(fbar: bool, rough: bool = False):
 @pytest.mark.parametrize("fbar", [True, False], ids=["fbar", "plain"])
 def test_the_pressure_field_has_no_checkerboard(fbar):
     """Tresca's plastic flow keeps the volume: without F-bar the points' volume changes lock
-    into a checkerboard, point to point (each cell's four points spread by twice the mean
+    into a checkerboard, point to point (each cell's four points spread by 2.5 times the mean
     pressure) and cell to cell (the alternating part of the cells' pressures 0.31 of their
     smooth part under the footing); F-bar over cells takes both out (0 and 0.065)."""
     p, cell, nx, ny, _ = _pushed(fbar)
@@ -164,6 +164,29 @@ def test_footing_restart_ends_where_the_whole_run_does(cli, tmp_path):
     assert b["dynamic"]["footing"] == a["dynamic"]["footing"]
     assert np.array_equal(curve(whole / "load_displacement.csv"),
                           curve(again / "load_displacement.csv"))
+
+
+def test_a_run_that_fails_keeps_its_curve(cli, tmp_path):
+    """On a grid no higher than the soil the heave leaves it (at t = 2.45 s, 11.6 cm of
+    settlement): the run stops in one line, and the curve and the kinetic energy are on
+    disk to the last output of the fields before it (every 0.16 s: 8 mm), the summary
+    listing them."""
+    out = tmp_path / "out"
+    res = cli(["-mpm_cells", "16,12", "-mpm_footing_settlement", "0.4", "-mpm_grid_size",
+               "4,3", "-mpm_progress", "0", "-mpm_figures", "0"],
+              options_file="footing-penetration", out_dir=out)
+    assert res.returncode == 3 and "left the grid" in res.stderr, res.stderr
+    s = res.summary
+    assert s["completed"] is False and s["error"]["kind"] == "numerical"
+    assert {"load_displacement", "energy"} <= set(s["files"])
+    t = float(res.stderr.split("t = ")[1].split(" ")[0])
+    settled = 0.05 * (t - 0.5 * 0.2435)                 # the ramp's half lost
+    rows = curve(out / "load_displacement.csv")
+    assert settled - 0.009 < rows[-1, 0] <= settled and np.all(np.diff(rows[:, 0]) > 0)
+    assert 1.0 < rows[-1, 1] / PRANDTL < 1.6
+    with open(out / "energy.csv") as fh:
+        last = float(list(csv.DictReader(fh))[-1]["t_s"])
+    assert t - 0.17 < last < t
 
 
 @pytest.mark.parametrize("args, words", [

@@ -214,7 +214,7 @@ def run(plan: FlowPlan, comm) -> int:
 
 def _run(plan, comm, record) -> None:
     ckpt, run_id = begun(record, plan, comm)
-    model = Flowing(plan, comm, run_id, ckpt)
+    model = Flowing(plan, comm, run_id, ckpt, files=record.files)
     record.results = runout.keys(plan, model)
     runout.print_plan(plan, model, comm)
     output_every, ckpt_every, ckpt_seconds, progress = plan.cadence
@@ -234,8 +234,9 @@ class Flowing:
 
     log_stage = "Flow steps"
 
-    def __init__(self, plan, comm, run_id, ckpt=None):
+    def __init__(self, plan, comm, run_id, ckpt=None, files=None):
         self.plan, self.comm, self.mpi = plan, comm, comm.tompi4py()
+        self.files = {} if files is None else files     # the record's: what is on disk
         x, volume = lattice.fill(plan.size, plan.cells, plan.ppc)
         self.n_global = len(x)
         self.ids = np.array_split(np.arange(len(x)), comm.getSize())[comm.getRank()]
@@ -311,6 +312,8 @@ class Flowing:
 
     def write_fields(self, k: int) -> None:
         self.series.write(self, k, self.time(k))
+        if self.comm.getRank() == 0:
+            self.files.update(runout.tables(self.plan, self, figures=False))
 
     def state(self) -> dict:
         return {"dt": self.dt, "peak": self.peak, "kinetic": self.kinetic,

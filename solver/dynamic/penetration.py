@@ -13,6 +13,7 @@ soil heaved beside it, and no closed form applies.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -112,12 +113,14 @@ def block(plan, curve: Curve) -> dict:
             "plateau_error_pct": 100 * (plateau / ref - 1) if name else math.nan}
 
 
-def write(plan, curve: Curve, files: dict) -> None:
-    """load_displacement.csv and its figure (rank 0)."""
+def write(plan, curve: Curve, files: dict, figures: bool = True) -> None:
+    """load_displacement.csv and, where ``figures`` and the run's outputs ask, its figure
+    (rank 0)."""
     f = plan.footing
     ref, name = f["reference"]
+    outputs = plan.outputs if figures else dataclasses.replace(plan.outputs, figures=False)
     files.update(output.load_displacement(
-        plan.outputs, np.array(curve.rows).reshape(-1, 2), ref,
+        outputs, np.array(curve.rows).reshape(-1, 2), ref,
         name + " (small settlement)" if name else "", "mean contact pressure (kPa)",
         window=[w * f["width"] for w in WINDOW]))
 

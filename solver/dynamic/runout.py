@@ -146,10 +146,7 @@ def finish(plan, model, record, comm) -> None:
         block["height_final_m"] = float(height.max())
         if plan.experiment is not None:
             block["experiment"] = compare(plan.experiment, xc, height, toe)
-        if plan.footing:
-            penetration.write(plan, model.curve, files)
-        files["energy"] = _csv(os.path.join(folder, "energy.csv"), "t_s,kinetic_energy_J_per_m",
-                               np.array(model.energy).reshape(-1, 2))
+        files.update(tables(plan, model, figures=True))
         files["profile"] = _csv(os.path.join(folder, "profile.csv"), "x_m,surface_m",
                                 np.column_stack([xc, height]))
         if plan.outputs.figures:
@@ -164,6 +161,19 @@ def finish(plan, model, record, comm) -> None:
     _print_results(block, plan, comm)
     record.results.update(block)
     record.finish()
+
+
+def tables(plan, model, figures: bool) -> dict:
+    """energy.csv and, under a footing, load_displacement.csv (with its figure where
+    ``figures``) as far as ``model`` (a :class:`flowing.Flowing`) has got; rank 0. Written
+    at each output of the point fields as well, so that a run that fails or is killed keeps
+    its curves to there. Returns the files by key."""
+    files = {}
+    if plan.footing:
+        penetration.write(plan, model.curve, files, figures)
+    files["energy"] = _csv(os.path.join(plan.outputs.folder, "energy.csv"),
+                           "t_s,kinetic_energy_J_per_m", np.array(model.energy).reshape(-1, 2))
+    return files
 
 
 def _csv(path, header, rows) -> str:
