@@ -6,8 +6,9 @@ point's height under the base: at the base itself the pressure rose by 7 % each 
 base crossed half a cell, at every cell size measured, and stayed there; at the points'
 centres the curve is smooth and the same as after that jump), one on each node column
 between the edges and one half a cell inside each edge (on the edge where that is the
-grid's side, the model's axis). There it holds the mean of the edge's two columns (1/2 each, with every function here) and reaches nothing
-beyond the edge; a marker on the edge held the column beyond it too (1/8, B-splines),
+grid's side: the model's axis, a wall). There a marker holds the mean of the edge's two
+columns (1/2 each, with every function here) and reaches nothing beyond the edge; a
+marker on the edge held the column beyond it too (1/8 with B-splines, 1/16 with uGIMP),
 and with it the soil beside the footing: the plateau 21 % over Prandtl's on 0.125 m cells
 against 15 %. Markers in the middle of every cell width would hold only the cells' means
 and leave the columns free to alternate (a checkerboard under the base half as large
