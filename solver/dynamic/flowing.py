@@ -234,9 +234,9 @@ class Flowing:
 
     log_stage = "Flow steps"
 
-    def __init__(self, plan, comm, run_id, ckpt=None, files=None):
+    def __init__(self, plan, comm, run_id, ckpt, files: dict):
         self.plan, self.comm, self.mpi = plan, comm, comm.tompi4py()
-        self.files = {} if files is None else files     # the record's: what is on disk
+        self.files = files              # the record's: what is on disk
         x, volume = lattice.fill(plan.size, plan.cells, plan.ppc)
         self.n_global = len(x)
         self.ids = np.array_split(np.arange(len(x)), comm.getSize())[comm.getRank()]

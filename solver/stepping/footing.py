@@ -51,12 +51,12 @@ class Footing:
         self.grid, self.top, self.rough, self.inset = grid, top, rough, inset
         self.width, self.edges = x1 - x0, (x0, x1)
         widths = int(round(self.width / grid.h[0]))
-        step, span = self.width / widths, grid.cells[0] * grid.h[0]
+        step, self.span = self.width / widths, grid.cells[0] * grid.h[0]
         # An edge on the grid's side keeps its column's marker (the mirror there holds
         # nothing beyond it); an edge inside the grid has its marker half a cell in.
         self.x = np.concatenate([[x0 if x0 <= 0 else x0 + 0.5 * step],
                                  x0 + step * np.arange(1, widths),
-                                 [x1 if x1 >= span else x1 - 0.5 * step]])
+                                 [x1 if x1 >= self.span else x1 - 0.5 * step]])
         self.velocity, self.ramp, self.end = velocity, ramp, end
         self.t = 0.0
         self.force = 0.0            # on the soil, downwards positive (N per m), this step
@@ -94,7 +94,7 @@ class Footing:
         y = np.arange(level + 0.5 * h, self.grid.cells[1] * h - 0.5 * h, h)
         sides, push = [], []
         for x, out in ((self.edges[0] - inset_x, -1.0), (self.edges[1] + inset_x, 1.0)):
-            if 0 < x < self.grid.cells[0] * self.grid.h[0]:
+            if 0 < x < self.span:
                 sides.append(np.column_stack([np.full(len(y), x), y]))
                 push.append(np.full(len(y), out))
         inverse = np.divide(1.0, mass, out=np.zeros_like(mass), where=mass > 0)
